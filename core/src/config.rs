@@ -1,0 +1,588 @@
+//! The odometer's settings, checked once: [`Config::validate`] turns a [`Config`] into a
+//! [`ValidConfig`] holding everything derived from it (homographies, the image region of
+//! interest), so that no invalid setting and no per-config computation reaches the per-frame path.
+
+use crate::motion::CameraLift;
+use crate::projection::{Attitude, GroundPoint, GroundProjection, Intrinsics, Mount};
+use core::fmt;
+
+/// Size of the camera's frames, pixels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ImageSize {
+    /// Columns, pixels.
+    pub width_px: u16,
+    /// Rows, pixels.
+    pub height_px: u16,
+}
+
+/// Limits of how fast the driver can change the motion (paper §2.2).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Dynamics {
+    /// Largest angular acceleration of the heading, rad/s^2 (paper: 10 deg/s^2, which covers 92% of
+    /// 22 km of driving).
+    pub max_heading_accel_rad_s2: f32,
+    /// Largest longitudinal acceleration or deceleration, m/s^2 (paper: 1.5 m/s^2).
+    pub max_longitudinal_accel_m_s2: f32,
+}
+
+/// The window of road in which features are detected (paper §4, Figure 14), on the ground, in
+/// the camera's look direction: distances are measured from the point on the road under the
+/// camera, along the camera's yaw, so the same window works for rear-facing cameras.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct GroundWindow {
+    /// Near cutoff, metres ahead of the camera; 0 means where the image ends.
+    pub near_m: f32,
+    /// Far cutoff, metres ahead of the camera (paper, KITTI: 12 m).
+    pub far_m: f32,
+    /// Lateral cutoff each side of the look direction, metres (paper, KITTI: 3 m).
+    pub half_width_m: f32,
+}
+
+/// Everything the odometer needs to know, in physical units. Build one, then
+/// [`validate`](Config::validate) it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Config {
+    /// Frame size the odometer expects.
+    pub image: ImageSize,
+    /// Camera intrinsics.
+    pub intrinsics: Intrinsics,
+    /// Camera extrinsics on the vehicle.
+    pub mount: Mount,
+    /// Bounds of the body attitude on its suspension, each side of level (paper §2.1, town
+    /// driving: pitch 1 deg, roll 2 deg).
+    pub attitude_bounds: Attitude,
+    /// Limits on the change of motion between frames.
+    pub dynamics: Dynamics,
+    /// Where on the road features are looked for.
+    pub window: GroundWindow,
+    /// Corners kept on each side of straight ahead (paper: 32).
+    pub features_per_side: u16,
+    /// Frames a track may go unmatched before it is dropped (paper: 3 to 5).
+    pub track_max_misses: u8,
+}
+
+/// Largest attitude bound accepted, radians (10 deg, the paper's theoretical roll limit).
+const MAX_ATTITUDE_BOUND_RAD: f32 = 10.0 * core::f32::consts::PI / 180.0;
+
+/// Smallest width and height of the image region of interest, pixels.
+pub const MIN_ROI_PX: u16 = 8;
+
+/// Why a [`Config`] was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ConfigError {
+    /// A number is NaN or infinite; `field` names it.
+    NonFinite {
+        /// The setting, as `section.name`.
+        field: &'static str,
+    },
+    /// Width or height of the image is zero.
+    EmptyImage,
+    /// A focal length is zero or negative.
+    FocalLengthNotPositive,
+    /// The camera is at or below the road (`mount.height_m <= 0`).
+    CameraNotAboveGround,
+    /// An attitude bound is negative or above 10 deg.
+    AttitudeBoundOutOfRange {
+        /// The setting, as `section.name`.
+        field: &'static str,
+    },
+    /// A dynamics limit is zero or negative.
+    DynamicsNotPositive {
+        /// The setting, as `section.name`.
+        field: &'static str,
+    },
+    /// The ground window is empty: near cutoff negative, far cutoff not beyond it, or a lateral
+    /// cutoff that is not positive.
+    EmptyWindow,
+    /// The camera sees the road plane edge-on, so no homography exists.
+    DegenerateGeometry,
+    /// The far end of the ground window is not in the image (behind the camera, above the horizon
+    /// under the attitude bounds, or outside the frame).
+    RoiOutsideImage,
+    /// The ground window's image is narrower or shorter than [`MIN_ROI_PX`] pixels: too few to
+    /// find corners in.
+    RoiTooSmall,
+    /// A count that sizes the work is zero.
+    ZeroCount {
+        /// The setting, as `section.name`.
+        field: &'static str,
+    },
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::NonFinite { field } => write!(f, "{field} is not a finite number"),
+            Self::EmptyImage => f.write_str("image width and height must be at least 1 pixel"),
+            Self::FocalLengthNotPositive => f.write_str("focal lengths must be positive"),
+            Self::CameraNotAboveGround => {
+                f.write_str("the camera must be above the road (height_m > 0)")
+            }
+            Self::AttitudeBoundOutOfRange { field } => {
+                write!(f, "{field} must be between 0 and 10 degrees")
+            }
+            Self::DynamicsNotPositive { field } => write!(f, "{field} must be positive"),
+            Self::EmptyWindow => f.write_str(
+                "the ground window is empty: need 0 <= near_m < far_m and half_width_m > 0",
+            ),
+            Self::DegenerateGeometry => f.write_str("the camera sees the road plane edge-on"),
+            Self::RoiOutsideImage => f.write_str(
+                "the far end of the ground window is not visible in the image \
+                 (behind the camera, above the horizon, or outside the frame)",
+            ),
+            Self::RoiTooSmall => write!(
+                f,
+                "the ground window covers less than {MIN_ROI_PX}x{MIN_ROI_PX} pixels of the image"
+            ),
+            Self::ZeroCount { field } => write!(f, "{field} must be at least 1"),
+        }
+    }
+}
+
+impl core::error::Error for ConfigError {}
+
+/// The image rectangle that holds the ground window, pixels, inclusive bounds. Detection reads
+/// only these rows and columns.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ImageRoi {
+    /// First column.
+    pub left_px: u16,
+    /// Last column.
+    pub right_px: u16,
+    /// First row (the far cutoff).
+    pub top_px: u16,
+    /// Last row (the near cutoff or the image's bottom).
+    pub bottom_px: u16,
+}
+
+/// A [`Config`] that passed validation, with what is derived from it once.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ValidConfig {
+    config: Config,
+    projection: GroundProjection,
+    lift: CameraLift,
+    roi: ImageRoi,
+}
+
+impl ValidConfig {
+    /// The settings as given.
+    pub fn config(&self) -> &Config {
+        &self.config
+    }
+
+    /// The nominal and extremal-attitude homographies.
+    pub fn projection(&self) -> &GroundProjection {
+        &self.projection
+    }
+
+    /// Lifts planar poses to KITTI camera poses through the mount.
+    pub fn lift(&self) -> &CameraLift {
+        &self.lift
+    }
+
+    /// The image rectangle holding the ground window.
+    pub fn roi(&self) -> ImageRoi {
+        self.roi
+    }
+
+    /// A ground point of the window's own frame (`ahead_m` along the camera's look direction from
+    /// the point under the camera, `left_m` to its left) in the vehicle frame.
+    pub fn window_point(&self, ahead_m: f32, left_m: f32) -> GroundPoint {
+        let m = &self.config.mount;
+        let (s, c) = (libm::sinf(m.yaw_rad), libm::cosf(m.yaw_rad));
+        GroundPoint {
+            x_m: m.x_m + c * ahead_m - s * left_m,
+            y_m: m.y_m + s * ahead_m + c * left_m,
+        }
+    }
+
+    /// Whether a ground point (vehicle frame) lies inside the ground window.
+    pub fn in_window(&self, p: GroundPoint) -> bool {
+        let m = &self.config.mount;
+        let w = &self.config.window;
+        let (s, c) = (libm::sinf(m.yaw_rad), libm::cosf(m.yaw_rad));
+        let (dx, dy) = (p.x_m - m.x_m, p.y_m - m.y_m);
+        let ahead = c * dx + s * dy;
+        let left = -s * dx + c * dy;
+        ahead >= w.near_m && ahead <= w.far_m && left.abs() <= w.half_width_m
+    }
+}
+
+impl Config {
+    /// Checks every setting and derives the homographies and the image region of interest.
+    pub fn validate(self) -> Result<ValidConfig, ConfigError> {
+        self.check_finite()?;
+        let (k, m, w) = (&self.intrinsics, &self.mount, &self.window);
+        if self.image.width_px == 0 || self.image.height_px == 0 {
+            return Err(ConfigError::EmptyImage);
+        }
+        if k.fx_px <= 0.0 || k.fy_px <= 0.0 {
+            return Err(ConfigError::FocalLengthNotPositive);
+        }
+        if m.height_m <= 0.0 {
+            return Err(ConfigError::CameraNotAboveGround);
+        }
+        let bound = |v: f32, field| {
+            if (0.0..=MAX_ATTITUDE_BOUND_RAD).contains(&v) {
+                Ok(())
+            } else {
+                Err(ConfigError::AttitudeBoundOutOfRange { field })
+            }
+        };
+        bound(self.attitude_bounds.pitch_rad, "attitude_bounds.pitch_rad")?;
+        bound(self.attitude_bounds.roll_rad, "attitude_bounds.roll_rad")?;
+        let positive = |v: f32, field| {
+            if v > 0.0 {
+                Ok(())
+            } else {
+                Err(ConfigError::DynamicsNotPositive { field })
+            }
+        };
+        positive(
+            self.dynamics.max_heading_accel_rad_s2,
+            "dynamics.max_heading_accel_rad_s2",
+        )?;
+        positive(
+            self.dynamics.max_longitudinal_accel_m_s2,
+            "dynamics.max_longitudinal_accel_m_s2",
+        )?;
+        if w.near_m < 0.0 || w.far_m <= w.near_m || w.half_width_m <= 0.0 {
+            return Err(ConfigError::EmptyWindow);
+        }
+        if self.features_per_side == 0 {
+            return Err(ConfigError::ZeroCount {
+                field: "features_per_side",
+            });
+        }
+        if self.track_max_misses == 0 {
+            return Err(ConfigError::ZeroCount {
+                field: "track_max_misses",
+            });
+        }
+        let projection = GroundProjection::new(k, m, self.attitude_bounds)
+            .ok_or(ConfigError::DegenerateGeometry)?;
+        let mut valid = ValidConfig {
+            config: self,
+            projection,
+            lift: CameraLift::new(m),
+            roi: ImageRoi {
+                left_px: 0,
+                right_px: 0,
+                top_px: 0,
+                bottom_px: 0,
+            },
+        };
+        let roi = valid.image_roi().ok_or(ConfigError::RoiOutsideImage)?;
+        if roi.right_px - roi.left_px < MIN_ROI_PX || roi.bottom_px - roi.top_px < MIN_ROI_PX {
+            return Err(ConfigError::RoiTooSmall);
+        }
+        valid.roi = roi;
+        Ok(valid)
+    }
+
+    fn check_finite(&self) -> Result<(), ConfigError> {
+        let (k, m, a, d, w) = (
+            &self.intrinsics,
+            &self.mount,
+            &self.attitude_bounds,
+            &self.dynamics,
+            &self.window,
+        );
+        let fields = [
+            (k.fx_px, "intrinsics.fx_px"),
+            (k.fy_px, "intrinsics.fy_px"),
+            (k.cx_px, "intrinsics.cx_px"),
+            (k.cy_px, "intrinsics.cy_px"),
+            (m.x_m, "mount.x_m"),
+            (m.y_m, "mount.y_m"),
+            (m.height_m, "mount.height_m"),
+            (m.yaw_rad, "mount.yaw_rad"),
+            (m.pitch_rad, "mount.pitch_rad"),
+            (m.roll_rad, "mount.roll_rad"),
+            (a.pitch_rad, "attitude_bounds.pitch_rad"),
+            (a.roll_rad, "attitude_bounds.roll_rad"),
+            (
+                d.max_heading_accel_rad_s2,
+                "dynamics.max_heading_accel_rad_s2",
+            ),
+            (
+                d.max_longitudinal_accel_m_s2,
+                "dynamics.max_longitudinal_accel_m_s2",
+            ),
+            (w.near_m, "window.near_m"),
+            (w.far_m, "window.far_m"),
+            (w.half_width_m, "window.half_width_m"),
+        ];
+        match fields.iter().find(|(v, _)| !v.is_finite()) {
+            Some(&(_, field)) => Err(ConfigError::NonFinite { field }),
+            None => Ok(()),
+        }
+    }
+}
+
+impl ValidConfig {
+    /// The bounding rectangle of the ground window's image, clipped to the frame. `None` when the
+    /// far end of the window is not visible, or when its pixel backprojects above the horizon
+    /// under one of the extremal attitudes.
+    fn image_roi(&self) -> Option<ImageRoi> {
+        let w = &self.config.window;
+        let size = &self.config.image;
+        let (max_u, max_v) = (f32::from(size.width_px - 1), f32::from(size.height_px - 1));
+        let proj = &self.projection;
+        let far_px = proj.nominal.project(self.window_point(w.far_m, 0.0))?;
+        let inside = (0.0..=max_u).contains(&far_px.u_px) && (0.0..=max_v).contains(&far_px.v_px);
+        if !inside || proj.observe(far_px).is_none() {
+            return None;
+        }
+        // The window rectangle, cut to the part in front of the camera, projected, cut to the
+        // frame: its image is convex, so clipping by half-planes is exact.
+        let mut ground = Polygon::default();
+        for (ahead, left) in [
+            (w.near_m, -1.0),
+            (w.far_m, -1.0),
+            (w.far_m, 1.0),
+            (w.near_m, 1.0),
+        ] {
+            let p = self.window_point(ahead, left * w.half_width_m);
+            ground.push([p.x_m, p.y_m]);
+        }
+        let seen =
+            ground.clip(|[x, y]| proj.nominal.depth_m(GroundPoint { x_m: x, y_m: y }) - 0.01);
+        let mut image = Polygon::default();
+        for &[x, y] in seen.points() {
+            let px = proj.nominal.project(GroundPoint { x_m: x, y_m: y })?;
+            image.push([px.u_px, px.v_px]);
+        }
+        let image = image
+            .clip(|[u, _]| u)
+            .clip(|[u, _]| max_u - u)
+            .clip(|[_, v]| v)
+            .clip(|[_, v]| max_v - v);
+        let (mut lo, mut hi) = ([max_u, max_v], [0.0f32, 0.0f32]);
+        for p in image.points() {
+            for k in 0..2 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        // Rounding outwards; the casts cannot wrap, the values lie in the frame.
+        Some(ImageRoi {
+            left_px: libm::floorf(lo[0]) as u16,
+            right_px: libm::ceilf(hi[0]) as u16,
+            top_px: libm::floorf(lo[1]) as u16,
+            bottom_px: libm::ceilf(hi[1]) as u16,
+        })
+    }
+}
+
+/// A small convex polygon for clipping: four corners, each half-plane cut adds at most one.
+#[derive(Clone, Copy, Default)]
+struct Polygon {
+    points: [[f32; 2]; 8],
+    len: usize,
+}
+
+impl Polygon {
+    fn points(&self) -> &[[f32; 2]] {
+        &self.points[..self.len]
+    }
+
+    fn push(&mut self, p: [f32; 2]) {
+        if let Some(slot) = self.points.get_mut(self.len) {
+            *slot = p;
+            self.len += 1;
+        }
+    }
+
+    /// Sutherland-Hodgman: keeps the part where `side(p) >= 0`.
+    fn clip(&self, side: impl Fn([f32; 2]) -> f32) -> Polygon {
+        let mut out = Polygon::default();
+        let pts = self.points();
+        for (i, &a) in pts.iter().enumerate() {
+            let b = pts[(i + 1) % pts.len()];
+            let (sa, sb) = (side(a), side(b));
+            if sa >= 0.0 {
+                out.push(a);
+            }
+            if (sa >= 0.0) != (sb >= 0.0) {
+                let t = sa / (sa - sb);
+                out.push([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]);
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const DEG: f32 = core::f32::consts::PI / 180.0;
+
+    /// The KITTI camera 0 with the paper's KITTI settings.
+    pub(crate) fn kitti_config() -> Config {
+        Config {
+            image: ImageSize {
+                width_px: 1241,
+                height_px: 376,
+            },
+            intrinsics: Intrinsics {
+                fx_px: 718.856,
+                fy_px: 718.856,
+                cx_px: 607.1928,
+                cy_px: 185.2157,
+            },
+            mount: Mount {
+                x_m: 1.0,
+                y_m: 0.0,
+                height_m: 1.65,
+                yaw_rad: 0.0,
+                pitch_rad: 0.0,
+                roll_rad: 0.0,
+            },
+            attitude_bounds: Attitude {
+                pitch_rad: 1.0 * DEG,
+                roll_rad: 2.0 * DEG,
+            },
+            dynamics: Dynamics {
+                max_heading_accel_rad_s2: 10.0 * DEG,
+                max_longitudinal_accel_m_s2: 1.5,
+            },
+            window: GroundWindow {
+                near_m: 0.0,
+                far_m: 12.0,
+                half_width_m: 3.0,
+            },
+            features_per_side: 32,
+            track_max_misses: 5,
+        }
+    }
+
+    #[test]
+    fn kitti_config_is_valid_and_roi_is_the_lower_band() {
+        let v = kitti_config().validate().unwrap();
+        let roi = v.roi();
+        // Far cutoff 11 m ahead of a 1.65 m camera: row cy + f * 1.65 / 12 = 284.
+        assert!((283..=285).contains(&roi.top_px), "{roi:?}");
+        assert_eq!(roi.bottom_px, 375);
+        assert!(roi.left_px > 0 && roi.right_px < 1240, "{roi:?}");
+        assert!(v.in_window(GroundPoint { x_m: 8.0, y_m: 1.0 }));
+        assert!(!v.in_window(GroundPoint {
+            x_m: 14.0,
+            y_m: 0.0
+        }));
+        assert!(!v.in_window(GroundPoint {
+            x_m: 8.0,
+            y_m: -3.5
+        }));
+    }
+
+    #[test]
+    fn every_bad_value_has_its_error() {
+        let ok = kitti_config();
+        let check = |f: &dyn Fn(&mut Config), want: ConfigError| {
+            let mut c = ok;
+            f(&mut c);
+            assert_eq!(c.validate().unwrap_err(), want);
+        };
+        check(
+            &|c| c.intrinsics.cx_px = f32::NAN,
+            ConfigError::NonFinite {
+                field: "intrinsics.cx_px",
+            },
+        );
+        check(
+            &|c| c.window.far_m = f32::INFINITY,
+            ConfigError::NonFinite {
+                field: "window.far_m",
+            },
+        );
+        check(&|c| c.image.width_px = 0, ConfigError::EmptyImage);
+        check(
+            &|c| c.intrinsics.fx_px = 0.0,
+            ConfigError::FocalLengthNotPositive,
+        );
+        check(
+            &|c| c.intrinsics.fy_px = -700.0,
+            ConfigError::FocalLengthNotPositive,
+        );
+        check(
+            &|c| c.mount.height_m = 0.0,
+            ConfigError::CameraNotAboveGround,
+        );
+        check(
+            &|c| c.mount.height_m = -1.0,
+            ConfigError::CameraNotAboveGround,
+        );
+        check(
+            &|c| c.attitude_bounds.roll_rad = -0.1,
+            ConfigError::AttitudeBoundOutOfRange {
+                field: "attitude_bounds.roll_rad",
+            },
+        );
+        check(
+            &|c| c.dynamics.max_longitudinal_accel_m_s2 = 0.0,
+            ConfigError::DynamicsNotPositive {
+                field: "dynamics.max_longitudinal_accel_m_s2",
+            },
+        );
+        check(&|c| c.window.far_m = 0.0, ConfigError::EmptyWindow);
+        check(&|c| c.window.half_width_m = 0.0, ConfigError::EmptyWindow);
+        check(
+            &|c| c.features_per_side = 0,
+            ConfigError::ZeroCount {
+                field: "features_per_side",
+            },
+        );
+        check(
+            &|c| c.track_max_misses = 0,
+            ConfigError::ZeroCount {
+                field: "track_max_misses",
+            },
+        );
+        // Looking up at the sky: the window is above the frame.
+        check(
+            &|c| c.mount.pitch_rad = 30.0 * DEG,
+            ConfigError::RoiOutsideImage,
+        );
+        // A far cutoff beyond the horizon once the body pitches up by the bound.
+        check(&|c| c.window.far_m = 500.0, ConfigError::RoiOutsideImage);
+        // A frame too small to hold the window.
+        check(
+            &|c| {
+                c.image = ImageSize {
+                    width_px: 100,
+                    height_px: 100,
+                }
+            },
+            ConfigError::RoiOutsideImage,
+        );
+        // A focal length so long that the window is a sliver of the frame.
+        check(&|c| c.intrinsics.fx_px = 1.0e38, ConfigError::RoiTooSmall);
+    }
+
+    #[test]
+    fn rear_camera_window_lies_behind_the_vehicle() {
+        let mut c = kitti_config();
+        c.mount.x_m = -0.8;
+        c.mount.yaw_rad = core::f32::consts::PI;
+        let v = c.validate().unwrap();
+        assert!(v.in_window(GroundPoint {
+            x_m: -6.0,
+            y_m: 0.0
+        }));
+        assert!(!v.in_window(GroundPoint { x_m: 6.0, y_m: 0.0 }));
+    }
+
+    #[test]
+    fn errors_display_their_field() {
+        let e = ConfigError::NonFinite { field: "mount.x_m" };
+        assert_eq!(std::format!("{e}"), "mount.x_m is not a finite number");
+    }
+}

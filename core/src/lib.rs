@@ -1,0 +1,33 @@
+//! # roadvo: monocular visual odometry for road vehicles
+//!
+//! One ordinary camera that sees the road ahead (or behind) gives the vehicle's planar trajectory
+//! and its per-frame motion at metric scale, after Van Hamme et al., "Robust monocular visual
+//! odometry for road vehicles using uncertain perspective projection" (EURASIP JIVP, 2015).
+//!
+//! The crate is `#![no_std]` without `alloc`: every buffer is sized by const generics and lives in
+//! the caller's value, and every fallible call returns its error as a value. Floats are `f32`
+//! computed through `libm`, never through a platform's float functions, so the host and a
+//! Cortex-M7 give bit-identical results.
+//!
+//! ## Modules, in the order the method uses them
+//! - [`config`]: the settings, validated once into a [`ValidConfig`].
+//! - [`projection`]: camera intrinsics, the mount, and the ground-plane homographies that turn a
+//!   pixel into a point on the road, or into the quadrilateral where it may lie given the body's
+//!   attitude on its suspension (paper §2.1).
+//! - [`motion`]: the Ackermann arc between frames, planar poses, and the lift of a planar pose to
+//!   a KITTI camera pose (paper §2.2).
+#![no_std]
+#![deny(missing_docs)]
+
+#[cfg(test)]
+extern crate std;
+
+pub mod config;
+pub mod motion;
+pub mod projection;
+
+pub use config::{Config, ConfigError, Dynamics, GroundWindow, ImageRoi, ImageSize, ValidConfig};
+pub use motion::{CameraLift, CameraPose, Motion, Pose2};
+pub use projection::{
+    Attitude, GroundPoint, GroundProjection, Homography, Intrinsics, Mount, Pixel, Quad,
+};
