@@ -1,0 +1,340 @@
+//! The KITTI odometry devkit metric (`evaluate_odometry.cpp`), plus short-segment and end-point
+//! figures for drives too short for it.
+//!
+//! For every first frame (every 10th) and every segment length, the segment ends at the first
+//! frame whose ground-truth path length from the first frame exceeds the length. The error of the
+//! segment is `E = (P'_first^-1 P'_last)^-1 (P_first^-1 P_last)`; its translation norm and
+//! rotation angle, divided by the segment length, are pooled over all segments.
+
+use crate::kitti::Pose;
+use anyhow::{Result, bail};
+use nalgebra::{Matrix3, Matrix4, Vector3};
+use serde::Serialize;
+
+/// The devkit's segment lengths, metres.
+pub const LENGTHS_M: [f64; 8] = [100.0, 200.0, 300.0, 400.0, 500.0, 600.0, 700.0, 800.0];
+/// Lengths for drives too short for the devkit's, metres (not a KITTI figure).
+pub const SHORT_LENGTHS_M: [f64; 5] = [10.0, 20.0, 30.0, 40.0, 50.0];
+/// The devkit's step between first frames.
+const STEP_FRAMES: usize = 10;
+
+/// Errors of the segments of one length.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LengthRow {
+    /// Segment length, metres.
+    pub length_m: f64,
+    /// Segments of this length.
+    pub segments: usize,
+    /// Mean translation error, percent of the length.
+    pub t_err_pct: f64,
+    /// Mean rotation error, degrees per metre.
+    pub r_err_deg_per_m: f64,
+}
+
+/// The pooled metric over a set of lengths.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Metric {
+    /// Segments evaluated.
+    pub segments: usize,
+    /// Mean translation error over all segments, percent; `None` without segments.
+    pub t_err_pct: Option<f64>,
+    /// Mean rotation error over all segments, deg/m; `None` without segments.
+    pub r_err_deg_per_m: Option<f64>,
+    /// The same per length (lengths without segments are left out).
+    pub per_length: Vec<LengthRow>,
+}
+
+/// Everything `roadvo eval` reports.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Report {
+    /// Poses compared.
+    pub frames: usize,
+    /// Ground-truth path length, metres.
+    pub path_length_m: f64,
+    /// KITTI translation error, percent (segments of 100..800 m).
+    pub t_err_pct: Option<f64>,
+    /// KITTI rotation error, deg/m.
+    pub r_err_deg_per_m: Option<f64>,
+    /// KITTI segments evaluated.
+    pub segments: usize,
+    /// KITTI metric per length.
+    pub per_length: Vec<LengthRow>,
+    /// The same metric over 10..50 m segments (not a KITTI figure), percent.
+    pub short_t_err_pct: Option<f64>,
+    /// The same metric over 10..50 m segments, deg/m.
+    pub short_r_err_deg_per_m: Option<f64>,
+    /// Short segments evaluated.
+    pub short_segments: usize,
+    /// Short metric per length.
+    pub short_per_length: Vec<LengthRow>,
+    /// Distance between the final positions over the path length, percent.
+    pub end_drift_pct: f64,
+    /// Rotation angle between the final orientations, degrees.
+    pub end_heading_err_deg: f64,
+}
+
+fn matrix(p: &Pose) -> Matrix4<f64> {
+    Matrix4::new(
+        p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11], 0.0, 0.0, 0.0,
+        1.0,
+    )
+}
+
+/// Inverse of a rigid transform `[R | t]`.
+fn rigid_inverse(m: &Matrix4<f64>) -> Matrix4<f64> {
+    let r: Matrix3<f64> = m.fixed_view::<3, 3>(0, 0).into();
+    let t: Vector3<f64> = m.fixed_view::<3, 1>(0, 3).into();
+    let rt = r.transpose();
+    let mut out = Matrix4::identity();
+    out.fixed_view_mut::<3, 3>(0, 0).copy_from(&rt);
+    out.fixed_view_mut::<3, 1>(0, 3).copy_from(&(-(rt * t)));
+    out
+}
+
+/// Rotation angle of the 3x3 part. The devkit takes `acos((trace - 1) / 2)`; near zero that
+/// turns a 1e-8 departure from orthonormality (poses written from f32) into 0.01 deg. The angle
+/// from cos and sin (the skew part) is the same for true rotations and stays accurate.
+fn rotation_angle_rad(m: &Matrix4<f64>) -> f64 {
+    let cos = 0.5 * (m[(0, 0)] + m[(1, 1)] + m[(2, 2)] - 1.0);
+    let axis = Vector3::new(
+        m[(2, 1)] - m[(1, 2)],
+        m[(0, 2)] - m[(2, 0)],
+        m[(1, 0)] - m[(0, 1)],
+    );
+    (0.5 * axis.norm()).atan2(cos)
+}
+
+fn translation_norm(m: &Matrix4<f64>) -> f64 {
+    m.fixed_view::<3, 1>(0, 3).norm()
+}
+
+/// Cumulative ground-truth path length at each frame, metres.
+fn distances(gt: &[Matrix4<f64>]) -> Vec<f64> {
+    let mut d = Vec::with_capacity(gt.len());
+    let mut acc = 0.0;
+    for (i, m) in gt.iter().enumerate() {
+        if i > 0 {
+            acc += (m.fixed_view::<3, 1>(0, 3) - gt[i - 1].fixed_view::<3, 1>(0, 3)).norm();
+        }
+        d.push(acc);
+    }
+    d
+}
+
+fn metric(gt: &[Matrix4<f64>], est: &[Matrix4<f64>], dist: &[f64], lengths: &[f64]) -> Metric {
+    // (t error / length, r error / length) per segment, grouped by length.
+    let mut per: Vec<Vec<(f64, f64)>> = vec![Vec::new(); lengths.len()];
+    for first in (0..gt.len()).step_by(STEP_FRAMES) {
+        for (k, &len) in lengths.iter().enumerate() {
+            let Some(last) = (first..gt.len()).find(|&i| dist[i] > dist[first] + len) else {
+                continue;
+            };
+            let q_gt = rigid_inverse(&gt[first]) * gt[last];
+            let q_est = rigid_inverse(&est[first]) * est[last];
+            let err = rigid_inverse(&q_est) * q_gt;
+            per[k].push((translation_norm(&err) / len, rotation_angle_rad(&err) / len));
+        }
+    }
+    let mean = |v: &[(f64, f64)]| {
+        let n = v.len() as f64;
+        let (t, r) = v.iter().fold((0.0, 0.0), |a, e| (a.0 + e.0, a.1 + e.1));
+        (100.0 * t / n, (r / n).to_degrees())
+    };
+    let per_length: Vec<LengthRow> = lengths
+        .iter()
+        .zip(&per)
+        .filter(|(_, v)| !v.is_empty())
+        .map(|(&length_m, v)| {
+            let (t, r) = mean(v);
+            LengthRow {
+                length_m,
+                segments: v.len(),
+                t_err_pct: t,
+                r_err_deg_per_m: r,
+            }
+        })
+        .collect();
+    let all: Vec<(f64, f64)> = per.concat();
+    let pooled = (!all.is_empty()).then(|| mean(&all));
+    Metric {
+        segments: all.len(),
+        t_err_pct: pooled.map(|p| p.0),
+        r_err_deg_per_m: pooled.map(|p| p.1),
+        per_length,
+    }
+}
+
+/// Compares an estimated trajectory with ground truth, both as KITTI poses of the same frames.
+pub fn evaluate(gt: &[Pose], est: &[Pose]) -> Result<Report> {
+    if gt.len() != est.len() {
+        bail!(
+            "ground truth has {} poses and the estimate {}: they must cover the same frames",
+            gt.len(),
+            est.len()
+        );
+    }
+    if gt.len() < 2 {
+        bail!("need at least two poses to evaluate");
+    }
+    let gt: Vec<Matrix4<f64>> = gt.iter().map(matrix).collect();
+    let est: Vec<Matrix4<f64>> = est.iter().map(matrix).collect();
+    let dist = distances(&gt);
+    let kitti = metric(&gt, &est, &dist, &LENGTHS_M);
+    let short = metric(&gt, &est, &dist, &SHORT_LENGTHS_M);
+    let (g, e) = (
+        gt.last().expect("two poses"),
+        est.last().expect("two poses"),
+    );
+    let path_length_m = *dist.last().expect("two poses");
+    let end_gap = (g.fixed_view::<3, 1>(0, 3) - e.fixed_view::<3, 1>(0, 3)).norm();
+    let end_rot = rigid_inverse(e) * g;
+    Ok(Report {
+        frames: gt.len(),
+        path_length_m,
+        t_err_pct: kitti.t_err_pct,
+        r_err_deg_per_m: kitti.r_err_deg_per_m,
+        segments: kitti.segments,
+        per_length: kitti.per_length,
+        short_t_err_pct: short.t_err_pct,
+        short_r_err_deg_per_m: short.r_err_deg_per_m,
+        short_segments: short.segments,
+        short_per_length: short.per_length,
+        end_drift_pct: if path_length_m > 0.0 {
+            100.0 * end_gap / path_length_m
+        } else {
+            0.0
+        },
+        end_heading_err_deg: rotation_angle_rad(&end_rot).to_degrees(),
+    })
+}
+
+/// Formats a report as the table `roadvo eval` prints.
+pub fn format_report(r: &Report) -> String {
+    let opt =
+        |v: Option<f64>, digits: usize| v.map_or("-".to_string(), |x| format!("{x:.digits$}"));
+    let mut s = format!(
+        "frames {}, ground-truth path {:.1} m\n\nKITTI metric (segments of 100..800 m): t_err {} %, r_err {} deg/m over {} segments\n",
+        r.frames,
+        r.path_length_m,
+        opt(r.t_err_pct, 2),
+        opt(r.r_err_deg_per_m, 4),
+        r.segments
+    );
+    let table = |rows: &[LengthRow]| {
+        let mut t = String::from("  length_m  segments  t_err_%  r_err_deg/m\n");
+        for row in rows {
+            t += &format!(
+                "  {:>8.0}  {:>8}  {:>7.2}  {:>11.4}\n",
+                row.length_m, row.segments, row.t_err_pct, row.r_err_deg_per_m
+            );
+        }
+        t
+    };
+    if !r.per_length.is_empty() {
+        s += &table(&r.per_length);
+    }
+    s += &format!(
+        "\nShort segments (10..50 m; not a KITTI figure): t_err {} %, r_err {} deg/m over {} segments\n",
+        opt(r.short_t_err_pct, 2),
+        opt(r.short_r_err_deg_per_m, 4),
+        r.short_segments
+    );
+    if !r.short_per_length.is_empty() {
+        s += &table(&r.short_per_length);
+    }
+    s += &format!(
+        "\nEnd point: drift {:.2} % of the path, heading error {:.2} deg\n",
+        r.end_drift_pct, r.end_heading_err_deg
+    );
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A planar KITTI-camera pose: camera z forward, x right, turning about -y (left turn).
+    fn planar(x_fwd: f64, y_left: f64, heading: f64) -> Pose {
+        let (s, c) = heading.sin_cos();
+        // Vehicle (x fwd, y left, z up) to camera (x right, y down, z fwd): x_c = -y, z_c = x.
+        [c, 0.0, -s, -y_left, 0.0, 1.0, 0.0, 0.0, s, 0.0, c, x_fwd]
+    }
+
+    fn straight(n: usize, step: f64) -> Vec<Pose> {
+        (0..n).map(|i| planar(i as f64 * step, 0.0, 0.0)).collect()
+    }
+
+    #[test]
+    fn identical_trajectories_score_zero() {
+        let gt = straight(3000, 0.1);
+        let r = evaluate(&gt, &gt).unwrap();
+        assert_eq!(r.t_err_pct, Some(0.0));
+        assert_eq!(r.r_err_deg_per_m, Some(0.0));
+        assert_eq!(r.end_drift_pct, 0.0);
+        assert_eq!(r.end_heading_err_deg, 0.0);
+        assert!(r.segments > 0 && r.short_segments > 0);
+    }
+
+    #[test]
+    fn five_percent_scale_error_scores_five_percent() {
+        let gt = straight(3000, 0.1);
+        let est = straight(3000, 0.105);
+        let r = evaluate(&gt, &est).unwrap();
+        // Segments end at the first frame past the length, 0.1 m longer than nominal.
+        for row in r.per_length.iter().chain(&r.short_per_length) {
+            let want = 5.0 * (row.length_m + 0.1) / row.length_m;
+            assert!((row.t_err_pct - want).abs() < 1e-6, "{row:?}");
+        }
+        let pooled = r.t_err_pct.unwrap();
+        assert!(pooled > 5.0 && pooled < 5.005, "{pooled}");
+        assert!(r.r_err_deg_per_m.unwrap().abs() < 1e-9);
+        assert!((r.end_drift_pct - 5.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn heading_rate_bias_scores_its_rate() {
+        // The estimate drives the same distance but turns 0.01 deg per metre.
+        let bias = 0.01f64.to_radians();
+        let gt = straight(3000, 0.1);
+        let mut est = Vec::new();
+        let (mut x, mut y, mut h) = (0.0, 0.0, 0.0);
+        for _ in 0..3000 {
+            est.push(planar(x, y, h));
+            x += 0.1 * h.cos();
+            y += 0.1 * h.sin();
+            h += bias * 0.1;
+        }
+        let r = evaluate(&gt, &est).unwrap();
+        // Segments are 0.1 m longer than nominal, so the angle per nominal metre is a bit more.
+        let want = 0.01 * (1.0 + 0.1 / 100.0);
+        let got = r.r_err_deg_per_m.unwrap();
+        assert!((got - want).abs() < 2e-4 * want + 1e-6, "{got} vs {want}");
+        let got_short = r.short_r_err_deg_per_m.unwrap();
+        assert!((got_short - 0.01).abs() < 3e-4, "{got_short}");
+    }
+
+    #[test]
+    fn short_drive_has_only_short_metric() {
+        let gt = straight(400, 0.1);
+        let r = evaluate(&gt, &gt).unwrap();
+        assert_eq!((r.t_err_pct, r.segments), (None, 0));
+        assert_eq!(r.short_t_err_pct, Some(0.0));
+        let text = format_report(&r);
+        assert!(text.contains("t_err - %"), "{text}");
+    }
+
+    #[test]
+    fn rotation_angle_matches_the_devkit_for_true_rotations() {
+        for deg in [0.5f64, 10.0, 90.0, 170.0] {
+            let p = planar(0.0, 0.0, deg.to_radians());
+            let got = rotation_angle_rad(&matrix(&p)).to_degrees();
+            assert!((got - deg).abs() < 1e-9, "{got} vs {deg}");
+        }
+    }
+
+    #[test]
+    fn lengths_must_match() {
+        let e = evaluate(&straight(10, 1.0), &straight(9, 1.0)).unwrap_err();
+        assert!(e.to_string().contains("10 poses and the estimate 9"));
+    }
+}

@@ -1,0 +1,13 @@
+//! Host side of roadvo: everything around the core that needs `std`. Synthetic drives with exact
+//! ground truth ([`scenario`], [`path`], [`render`], [`simulate`]), the KITTI file layout
+//! ([`kitti`]), the mount file users write for their vehicles ([`mount`]), the KITTI metric
+//! ([`eval`]) and plots ([`plot`]). The `roadvo` binary is a thin command line over these.
+
+pub mod eval;
+pub mod kitti;
+pub mod mount;
+pub mod path;
+pub mod plot;
+pub mod render;
+pub mod scenario;
+pub mod simulate;

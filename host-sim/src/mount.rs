@@ -1,0 +1,245 @@
+//! The mount file (`mount.toml`): a vehicle's camera, its mount and the odometer's settings, as a
+//! user writes them. Angles are in degrees here (radians in the core); every `[odometer]` entry is
+//! optional and defaults to the paper's value.
+//!
+//! ```toml
+//! [camera]            # pinhole intrinsics of the rectified image
+//! width_px = 1241
+//! height_px = 376
+//! fx_px = 718.856
+//! fy_px = 718.856
+//! cx_px = 607.1928
+//! cy_px = 185.2157
+//!
+//! [mount]             # camera centre in the vehicle frame (origin on the road under the
+//! x_m = 1.0           # rear-axle centre, x forward, y left, z up) and its orientation
+//! y_m = 0.0
+//! height_m = 1.65
+//! yaw_deg = 0.0       # 180 for a rear-facing camera
+//! pitch_deg = 0.0     # positive looking up
+//! roll_deg = 0.0      # positive lifts the camera's left side
+//!
+//! [odometer]
+//! pitch_bound_deg = 1.0               # body pitch on the suspension, each side (paper: 1)
+//! roll_bound_deg = 2.0                # body roll, each side (paper: 2)
+//! max_heading_accel_deg_s2 = 10.0     # paper: 10
+//! max_longitudinal_accel_m_s2 = 1.5   # paper: 1.5
+//! window_near_m = 0.0                 # 0: where the image ends
+//! window_far_m = 12.0                 # paper, KITTI: 12
+//! window_half_width_m = 3.0           # paper, KITTI: 3
+//! features_per_side = 32              # paper: 32
+//! track_max_misses = 5                # paper: 3 to 5
+//! ```
+
+use anyhow::{Context, Result};
+use roadvo::{Attitude, Config, Dynamics, GroundWindow, ImageSize, Intrinsics, Mount};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// `[camera]`: image size and pinhole intrinsics.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraSection {
+    /// Columns.
+    pub width_px: u16,
+    /// Rows.
+    pub height_px: u16,
+    /// Horizontal focal length, pixels.
+    pub fx_px: f32,
+    /// Vertical focal length, pixels.
+    pub fy_px: f32,
+    /// Principal point column, pixels.
+    pub cx_px: f32,
+    /// Principal point row, pixels.
+    pub cy_px: f32,
+}
+
+/// `[mount]`: camera position and orientation in the vehicle frame.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MountSection {
+    /// Ahead of the rear-axle centre, metres.
+    pub x_m: f32,
+    /// Left of the centre line, metres.
+    #[serde(default)]
+    pub y_m: f32,
+    /// Above the road, metres.
+    pub height_m: f32,
+    /// Degrees, counter-clockwise; 180 faces backwards.
+    #[serde(default)]
+    pub yaw_deg: f32,
+    /// Degrees, positive up.
+    #[serde(default)]
+    pub pitch_deg: f32,
+    /// Degrees, positive lifts the camera's left side.
+    #[serde(default)]
+    pub roll_deg: f32,
+}
+
+/// `[odometer]`: the method's settings; each defaults to the paper's value.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct OdometerSection {
+    /// Body pitch bound each side, degrees.
+    pub pitch_bound_deg: f32,
+    /// Body roll bound each side, degrees.
+    pub roll_bound_deg: f32,
+    /// Heading acceleration limit, deg/s^2.
+    pub max_heading_accel_deg_s2: f32,
+    /// Longitudinal acceleration limit, m/s^2.
+    pub max_longitudinal_accel_m_s2: f32,
+    /// Near cutoff, metres ahead of the camera (0: the image's edge).
+    pub window_near_m: f32,
+    /// Far cutoff, metres ahead of the camera.
+    pub window_far_m: f32,
+    /// Lateral cutoff each side, metres.
+    pub window_half_width_m: f32,
+    /// Corners per side of straight ahead.
+    pub features_per_side: u16,
+    /// Frames a track survives unmatched.
+    pub track_max_misses: u8,
+}
+
+impl Default for OdometerSection {
+    fn default() -> Self {
+        Self {
+            pitch_bound_deg: 1.0,
+            roll_bound_deg: 2.0,
+            max_heading_accel_deg_s2: 10.0,
+            max_longitudinal_accel_m_s2: 1.5,
+            window_near_m: 0.0,
+            window_far_m: 12.0,
+            window_half_width_m: 3.0,
+            features_per_side: 32,
+            track_max_misses: 5,
+        }
+    }
+}
+
+/// A whole mount file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MountFile {
+    /// `[camera]`.
+    pub camera: CameraSection,
+    /// `[mount]`.
+    pub mount: MountSection,
+    /// `[odometer]`.
+    #[serde(default)]
+    pub odometer: OdometerSection,
+}
+
+impl MountFile {
+    /// Reads and parses a mount file; errors name the file, and the line for syntax errors.
+    pub fn read(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read mount file {}", path.display()))?;
+        toml::from_str(&text).with_context(|| format!("in mount file {}", path.display()))
+    }
+
+    /// Writes the file with a header that says what it is.
+    pub fn write(&self, path: &Path) -> Result<()> {
+        let body = toml::to_string(self)?;
+        let text = format!(
+            "# roadvo mount file: camera intrinsics, camera mount in the vehicle frame (origin on\n\
+             # the road under the rear-axle centre, x forward, y left, z up; angles in degrees)\n\
+             # and odometer settings. Format: see host-sim/src/mount.rs or the README.\n\n{body}"
+        );
+        std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))
+    }
+
+    /// The core's configuration (not yet validated).
+    pub fn to_config(&self) -> Config {
+        let (c, o) = (&self.camera, &self.odometer);
+        Config {
+            image: ImageSize {
+                width_px: c.width_px,
+                height_px: c.height_px,
+            },
+            intrinsics: Intrinsics {
+                fx_px: c.fx_px,
+                fy_px: c.fy_px,
+                cx_px: c.cx_px,
+                cy_px: c.cy_px,
+            },
+            mount: self.mount.to_core(),
+            attitude_bounds: Attitude {
+                pitch_rad: o.pitch_bound_deg.to_radians(),
+                roll_rad: o.roll_bound_deg.to_radians(),
+            },
+            dynamics: Dynamics {
+                max_heading_accel_rad_s2: o.max_heading_accel_deg_s2.to_radians(),
+                max_longitudinal_accel_m_s2: o.max_longitudinal_accel_m_s2,
+            },
+            window: GroundWindow {
+                near_m: o.window_near_m,
+                far_m: o.window_far_m,
+                half_width_m: o.window_half_width_m,
+            },
+            features_per_side: o.features_per_side,
+            track_max_misses: o.track_max_misses,
+        }
+    }
+}
+
+impl MountSection {
+    /// The core's mount, angles in radians.
+    pub fn to_core(&self) -> Mount {
+        Mount {
+            x_m: self.x_m,
+            y_m: self.y_m,
+            height_m: self.height_m,
+            yaw_rad: self.yaw_deg.to_radians(),
+            pitch_rad: self.pitch_deg.to_radians(),
+            roll_rad: self.roll_deg.to_radians(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const KITTI: &str = r#"
+[camera]
+width_px = 1241
+height_px = 376
+fx_px = 718.856
+fy_px = 718.856
+cx_px = 607.1928
+cy_px = 185.2157
+
+[mount]
+x_m = 1.0
+height_m = 1.65
+"#;
+
+    #[test]
+    fn minimal_file_takes_paper_defaults_and_validates() {
+        let f: MountFile = toml::from_str(KITTI).unwrap();
+        assert_eq!(f.odometer, OdometerSection::default());
+        let c = f.to_config();
+        assert_eq!(c.features_per_side, 32);
+        c.validate().unwrap();
+    }
+
+    #[test]
+    fn written_file_reads_back() {
+        let f: MountFile = toml::from_str(KITTI).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("mount.toml");
+        f.write(&p).unwrap();
+        assert_eq!(MountFile::read(&p).unwrap(), f);
+    }
+
+    #[test]
+    fn unknown_key_is_reported_with_its_line() {
+        let bad = KITTI.replace("height_m = 1.65", "height_m = 1.65\nheigth = 2");
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("mount.toml");
+        std::fs::write(&p, bad).unwrap();
+        let e = format!("{:#}", MountFile::read(&p).unwrap_err());
+        assert!(e.contains("mount.toml") && e.contains("heigth"), "{e}");
+        assert!(e.contains("line 13"), "{e}");
+    }
+}

@@ -1,0 +1,354 @@
+//! Synthetic drives: what `roadvo simulate` renders. A scenario is a TOML file (or one of the
+//! built-ins, whose TOML `roadvo simulate --print-scenario NAME` prints as a starting point):
+//!
+//! ```toml
+//! name = "my-drive"
+//! frames_per_second = 10.0
+//!
+//! [camera]                   # as in mount.toml
+//! width_px = 640
+//! height_px = 480
+//! fx_px = 560.0
+//! fy_px = 560.0
+//! cx_px = 320.0
+//! cy_px = 240.0
+//!
+//! [mount]                    # the mount the images are rendered with, as in mount.toml
+//! x_m = 1.5
+//! height_m = 2.7
+//! pitch_deg = -20.0
+//!
+//! [[segment]]                # the path: straights, arcs, clothoids, in order
+//! kind = "straight"
+//! length_m = 30.0
+//! [[segment]]
+//! kind = "clothoid"          # curvature changes linearly to end_curvature_per_m
+//! length_m = 15.0
+//! end_curvature_per_m = 0.2094
+//! [[segment]]
+//! kind = "arc"
+//! radius_m = 50.0
+//! angle_deg = -45.0          # positive turns left
+//!
+//! [[speed]]                  # speed along the path, piecewise linear in distance
+//! at_m = 0.0
+//! speed_m_s = 2.5
+//!
+//! [render]                   # all optional
+//! supersample = 2            # samples per pixel along each axis
+//! noise_dn = 1.5             # sensor noise, standard deviation, grey levels
+//! lane_width_m = 3.5
+//!
+//! [suspension]               # optional: body pitch and roll oscillation
+//! pitch_amplitude_deg = 0.5
+//! pitch_frequency_hz = 1.5
+//! roll_amplitude_deg = 1.0
+//! roll_frequency_hz = 1.2
+//!
+//! [[vehicle]]                # optional, any number: boxes driving along the road
+//! lateral_m = 0.0            # offset from our lane's centre, metres, positive left
+//! ahead_m = 7.0              # distance ahead of us when it appears
+//! speed_m_s = 2.5            # omitted: keeps its distance to us; negative: oncoming
+//! appear_s = 10.0
+//! disappear_s = 12.0
+//!
+//! [kerb]                     # optional: a raised strip (paper appendix)
+//! from_m = -3.0              # lateral range, metres, positive left
+//! to_m = -2.0
+//! height_m = 0.15
+//!
+//! [crown]                    # optional: the road falls away beyond these offsets
+//! left_from_m = 1.0
+//! left_slope = 0.04
+//! right_from_m = 1.0
+//! right_slope = 0.0
+//!
+//! [calibration_error]        # optional: added to the mount written into mount.toml
+//! pitch_deg = 1.0
+//! ```
+
+use crate::mount::{CameraSection, MountFile, MountSection, OdometerSection};
+use crate::path::{Segment, SpeedKnot, check_speed_profile};
+use anyhow::{Context, Result, bail};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Rendering options.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RenderOptions {
+    /// Samples per pixel along each axis (anti-aliasing): 2 gives 4 samples a pixel.
+    pub supersample: u8,
+    /// Sensor noise, standard deviation in grey levels.
+    pub noise_dn: f64,
+    /// Lane width, metres; our lane is centred on the path, one more lane lies to its left.
+    pub lane_width_m: f64,
+    /// Scales how many texture patches the asphalt carries (1: about four per square metre).
+    pub texture_density: f64,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        Self {
+            supersample: 2,
+            noise_dn: 1.5,
+            lane_width_m: 3.5,
+            texture_density: 1.0,
+        }
+    }
+}
+
+/// Body oscillation on the suspension: sinusoids in pitch and roll.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Suspension {
+    /// Pitch amplitude, degrees.
+    pub pitch_amplitude_deg: f64,
+    /// Pitch frequency, Hz.
+    pub pitch_frequency_hz: f64,
+    /// Roll amplitude, degrees.
+    pub roll_amplitude_deg: f64,
+    /// Roll frequency, Hz.
+    pub roll_frequency_hz: f64,
+}
+
+/// Another road user: a textured box driving along the road.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Vehicle {
+    /// Offset from our lane's centre, metres, positive left.
+    pub lateral_m: f64,
+    /// Distance ahead of our rear axle when it appears, metres (negative: behind).
+    pub ahead_m: f64,
+    /// Its speed along the path, m/s; omitted, it keeps its distance to us. Negative: oncoming.
+    #[serde(default)]
+    pub speed_m_s: Option<f64>,
+    /// Time it appears, seconds.
+    #[serde(default)]
+    pub appear_s: f64,
+    /// Time it vanishes, seconds.
+    #[serde(default = "forever")]
+    pub disappear_s: f64,
+    /// Length, metres.
+    #[serde(default = "car_length")]
+    pub length_m: f64,
+    /// Width, metres.
+    #[serde(default = "car_width")]
+    pub width_m: f64,
+    /// Height, metres.
+    #[serde(default = "car_height")]
+    pub height_m: f64,
+}
+
+fn forever() -> f64 {
+    f64::INFINITY
+}
+fn car_length() -> f64 {
+    4.5
+}
+fn car_width() -> f64 {
+    1.8
+}
+fn car_height() -> f64 {
+    1.5
+}
+
+/// A strip of road raised above the plane the vehicle drives on.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Kerb {
+    /// Lateral start of the strip, metres from our lane's centre, positive left.
+    pub from_m: f64,
+    /// Lateral end of the strip.
+    pub to_m: f64,
+    /// Height, metres (paper: 0.15).
+    pub height_m: f64,
+}
+
+/// A crowned road: beyond an offset on each side the surface falls away with a slope.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Crown {
+    /// Where the left side starts to fall, metres left of our lane's centre.
+    pub left_from_m: f64,
+    /// Fall per metre on the left (0.04: 4%).
+    pub left_slope: f64,
+    /// Where the right side starts to fall, metres right of our lane's centre.
+    pub right_from_m: f64,
+    /// Fall per metre on the right.
+    pub right_slope: f64,
+}
+
+/// Errors added to the true mount in the mount file written beside the images.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MountError {
+    /// Metres.
+    pub x_m: f32,
+    /// Metres.
+    pub y_m: f32,
+    /// Metres.
+    pub height_m: f32,
+    /// Degrees.
+    pub yaw_deg: f32,
+    /// Degrees.
+    pub pitch_deg: f32,
+    /// Degrees.
+    pub roll_deg: f32,
+}
+
+/// A whole scenario.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// A name for reports.
+    pub name: String,
+    /// Frame rate, frames per second.
+    pub frames_per_second: f64,
+    /// Camera intrinsics and image size.
+    pub camera: CameraSection,
+    /// The true mount.
+    pub mount: MountSection,
+    /// Odometer settings written into mount.toml.
+    #[serde(default)]
+    pub odometer: OdometerSection,
+    /// The path, in order.
+    #[serde(rename = "segment")]
+    pub segments: Vec<Segment>,
+    /// The speed profile.
+    #[serde(rename = "speed")]
+    pub speed: Vec<SpeedKnot>,
+    /// Rendering options.
+    #[serde(default)]
+    pub render: RenderOptions,
+    /// Body oscillation.
+    #[serde(default)]
+    pub suspension: Suspension,
+    /// Other road users.
+    #[serde(default, rename = "vehicle", skip_serializing_if = "Vec::is_empty")]
+    pub vehicles: Vec<Vehicle>,
+    /// A raised strip.
+    #[serde(default)]
+    pub kerb: Option<Kerb>,
+    /// A crowned road.
+    #[serde(default)]
+    pub crown: Option<Crown>,
+    /// Calibration error written into mount.toml.
+    #[serde(default)]
+    pub calibration_error: MountError,
+}
+
+/// The built-in scenarios' names.
+pub const BUILT_IN: [&str; 2] = ["s-course", "kitti-like"];
+
+impl Scenario {
+    /// The TOML text of a built-in scenario, with its comments.
+    pub fn built_in_text(name: &str) -> Result<&'static str> {
+        Ok(match name {
+            "s-course" => include_str!("../scenarios/s-course.toml"),
+            "kitti-like" => include_str!("../scenarios/kitti-like.toml"),
+            _ => bail!(
+                "no built-in scenario {name:?} (and no such file); built-ins: {}",
+                BUILT_IN.join(", ")
+            ),
+        })
+    }
+
+    /// A built-in scenario by name.
+    pub fn built_in(name: &str) -> Result<Self> {
+        Self::parse(Self::built_in_text(name)?).with_context(|| format!("built-in scenario {name}"))
+    }
+
+    /// Reads a scenario file.
+    pub fn read(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read scenario {}", path.display()))?;
+        Self::parse(&text).with_context(|| format!("in scenario {}", path.display()))
+    }
+
+    fn parse(text: &str) -> Result<Self> {
+        let s: Scenario = toml::from_str(text)?;
+        s.check()?;
+        Ok(s)
+    }
+
+    fn check(&self) -> Result<()> {
+        if !(self.frames_per_second.is_finite() && self.frames_per_second > 0.0) {
+            bail!("frames_per_second must be positive");
+        }
+        if self.render.supersample == 0 || self.render.supersample > 8 {
+            bail!("render.supersample must be 1 to 8");
+        }
+        if !(self.render.noise_dn >= 0.0 && self.render.texture_density >= 0.0) {
+            bail!("render.noise_dn and render.texture_density must be >= 0");
+        }
+        check_speed_profile(&self.speed)?;
+        for (i, v) in self.vehicles.iter().enumerate() {
+            if !(v.length_m > 0.0 && v.width_m > 0.0 && v.height_m > 0.0) {
+                bail!("[[vehicle]] {}: sizes must be positive", i + 1);
+            }
+        }
+        if let Some(k) = &self.kerb
+            && (k.to_m.is_nan() || k.to_m <= k.from_m)
+        {
+            bail!("[kerb]: to_m must be greater than from_m");
+        }
+        // The true mount must make a valid odometer configuration.
+        self.mount_file(false)
+            .to_config()
+            .validate()
+            .map_err(|e| anyhow::anyhow!("camera and mount: {e}"))?;
+        Ok(())
+    }
+
+    /// The mount file for this drive: the true mount, or with `with_error` the mount plus the
+    /// scenario's calibration error (what `simulate` writes beside the images).
+    pub fn mount_file(&self, with_error: bool) -> MountFile {
+        let mut mount = self.mount.clone();
+        if with_error {
+            let e = &self.calibration_error;
+            mount.x_m += e.x_m;
+            mount.y_m += e.y_m;
+            mount.height_m += e.height_m;
+            mount.yaw_deg += e.yaw_deg;
+            mount.pitch_deg += e.pitch_deg;
+            mount.roll_deg += e.roll_deg;
+        }
+        MountFile {
+            camera: self.camera.clone(),
+            mount,
+            odometer: self.odometer.clone(),
+        }
+    }
+
+    /// The scenario as TOML.
+    pub fn to_toml(&self) -> Result<String> {
+        Ok(toml::to_string(self)?)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn built_ins_parse_and_round_trip() {
+        for name in BUILT_IN {
+            let s = Scenario::built_in(name).unwrap();
+            let again = Scenario::parse(&s.to_toml().unwrap()).unwrap();
+            assert_eq!(s, again, "{name}");
+        }
+        assert!(Scenario::built_in("nope").is_err());
+    }
+
+    #[test]
+    fn s_course_is_the_papers() {
+        let s = Scenario::built_in("s-course").unwrap();
+        let path = crate::path::Path::new(&s.segments).unwrap();
+        assert!((path.length_m() - 120.0).abs() < 1e-6);
+        let end = path.pose_at(path.length_m());
+        // Left 180 then right 180: heading back to zero.
+        assert!(end.heading_rad.abs() < 1e-6, "{end:?}");
+        assert!((s.mount.pitch_deg + 20.0).abs() < 1e-6 && (s.mount.height_m - 2.7).abs() < 1e-6);
+    }
+}

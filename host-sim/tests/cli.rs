@@ -1,0 +1,102 @@
+//! The `roadvo` command line, run as a user runs it.
+
+use std::path::Path;
+use std::process::Command;
+
+fn roadvo(args: &[&str]) -> std::process::Output {
+    let out = Command::new(env!("CARGO_BIN_EXE_roadvo"))
+        .args(args)
+        .output()
+        .expect("roadvo runs");
+    assert!(
+        out.status.success(),
+        "roadvo {args:?} failed:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+#[test]
+fn simulate_then_eval_ground_truth_against_itself_prints_zeros() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    roadvo(&[
+        "simulate",
+        "--scenario",
+        "s-course",
+        "--out",
+        out,
+        "--frames",
+        "45",
+    ]);
+    let gt = Path::new(out).join("poses/00.txt");
+    let plot = dir.path().join("plot.svg");
+    let json = roadvo(&[
+        "eval",
+        gt.to_str().unwrap(),
+        gt.to_str().unwrap(),
+        "--json",
+        "--plot",
+        plot.to_str().unwrap(),
+    ]);
+    let v: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
+    for key in [
+        "short_t_err_pct",
+        "short_r_err_deg_per_m",
+        "end_drift_pct",
+        "end_heading_err_deg",
+    ] {
+        assert_eq!(v[key], serde_json::json!(0.0), "{key}: {v}");
+    }
+    // 11 m: short segments only; the KITTI figures are null rather than invented.
+    assert!(
+        v["t_err_pct"].is_null() && v["r_err_deg_per_m"].is_null(),
+        "{v}"
+    );
+    assert_eq!(v["segments"], 0);
+    assert!(std::fs::metadata(&plot).unwrap().len() > 1000);
+}
+
+#[test]
+fn print_scenario_gives_toml_that_renders() {
+    let out = roadvo(&["simulate", "--scenario", "kitti-like", "--print-scenario"]);
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.contains("name = \"kitti-like\""), "{text}");
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("mine.toml");
+    // A user's own scenario: the built-in, smaller and with a vehicle ahead.
+    let mine = text
+        .replace("width_px = 1241", "width_px = 620")
+        .replace("cx_px = 607.1928", "cx_px = 310.0")
+        + "\n[[vehicle]]\nlateral_m = 0.0\nahead_m = 12.0\n";
+    std::fs::write(&file, mine).unwrap();
+    let seq = dir.path().join("run");
+    roadvo(&[
+        "simulate",
+        "--scenario",
+        file.to_str().unwrap(),
+        "--out",
+        seq.to_str().unwrap(),
+        "--frames",
+        "2",
+    ]);
+    let img = image::open(seq.join("sequences/00/image_0/000001.png")).unwrap();
+    assert_eq!((img.width(), img.height()), (620, 376));
+}
+
+#[test]
+fn bad_input_says_which_file_and_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let gt = dir.path().join("gt.txt");
+    std::fs::write(&gt, "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 0 0 0 1\n").unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_roadvo"))
+        .args(["eval", gt.to_str().unwrap(), gt.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("gt.txt line 2: expected 12 numbers (a 3x4 pose), found 11"),
+        "{err}"
+    );
+}
