@@ -63,6 +63,10 @@ pub struct Config {
     pub features_per_side: u16,
     /// Frames a track may go unmatched before it is dropped (paper: 3 to 5).
     pub track_max_misses: u8,
+    /// Smallest Harris response a corner needs, in units of (Sobel gradient)^4 / 2^16; 2000 is
+    /// about a 25-grey-level step at a right-angled corner. Sensor noise of 2 grey levels scores
+    /// under 10.
+    pub corner_threshold: u32,
 }
 
 /// Largest attitude bound accepted, radians (10 deg, the paper's theoretical roll limit).
@@ -202,14 +206,19 @@ impl ValidConfig {
         }
     }
 
-    /// Whether a ground point (vehicle frame) lies inside the ground window.
-    pub fn in_window(&self, p: GroundPoint) -> bool {
+    /// A ground point (vehicle frame) in the window's own frame: (metres ahead of the camera
+    /// along its look direction, metres to the left of it).
+    pub fn window_coords(&self, p: GroundPoint) -> (f32, f32) {
         let m = &self.config.mount;
-        let w = &self.config.window;
         let (s, c) = (libm::sinf(m.yaw_rad), libm::cosf(m.yaw_rad));
         let (dx, dy) = (p.x_m - m.x_m, p.y_m - m.y_m);
-        let ahead = c * dx + s * dy;
-        let left = -s * dx + c * dy;
+        (c * dx + s * dy, -s * dx + c * dy)
+    }
+
+    /// Whether a ground point (vehicle frame) lies inside the ground window.
+    pub fn in_window(&self, p: GroundPoint) -> bool {
+        let w = &self.config.window;
+        let (ahead, left) = self.window_coords(p);
         ahead >= w.near_m && ahead <= w.far_m && left.abs() <= w.half_width_m
     }
 }
@@ -420,7 +429,7 @@ impl Polygon {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     const DEG: f32 = core::f32::consts::PI / 180.0;
@@ -461,6 +470,7 @@ mod tests {
             },
             features_per_side: 32,
             track_max_misses: 5,
+            corner_threshold: 2000,
         }
     }
 

@@ -16,6 +16,8 @@
 //!   attitude on its suspension (paper §2.1).
 //! - [`motion`]: the Ackermann arc between frames, planar poses, and the lift of a planar pose to
 //!   a KITTI camera pose (paper §2.2).
+//! - [`frame`]: the [`Frame`] trait through which images arrive, a row at a time.
+//! - [`harris`]: integer Harris corners inside the ground window, the strongest per side.
 #![no_std]
 #![deny(missing_docs)]
 
@@ -23,10 +25,14 @@
 extern crate std;
 
 pub mod config;
+pub mod frame;
+pub mod harris;
 pub mod motion;
 pub mod projection;
 
 pub use config::{Config, ConfigError, Dynamics, GroundWindow, ImageRoi, ImageSize, ValidConfig};
+pub use frame::{Frame, SliceFrame};
+pub use harris::{Corner, Corners, HarrisScratch};
 pub use motion::{CameraLift, CameraPose, Motion, Pose2};
 pub use projection::{
     Attitude, GroundPoint, GroundProjection, Homography, Intrinsics, Mount, Pixel, Quad,

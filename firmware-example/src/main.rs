@@ -47,6 +47,7 @@ fn kitti_config() -> Config {
         },
         features_per_side: 32,
         track_max_misses: 5,
+        corner_threshold: 2000,
     }
 }
 

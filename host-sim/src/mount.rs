@@ -29,6 +29,7 @@
 //! window_half_width_m = 3.0           # paper, KITTI: 3
 //! features_per_side = 32              # paper: 32
 //! track_max_misses = 5                # paper: 3 to 5
+//! corner_threshold = 2000             # smallest Harris response (Sobel^4 / 2^16)
 //! ```
 
 use anyhow::{Context, Result};
@@ -98,6 +99,8 @@ pub struct OdometerSection {
     pub features_per_side: u16,
     /// Frames a track survives unmatched.
     pub track_max_misses: u8,
+    /// Smallest Harris response of a corner (see the core's `Config::corner_threshold`).
+    pub corner_threshold: u32,
 }
 
 impl Default for OdometerSection {
@@ -112,6 +115,7 @@ impl Default for OdometerSection {
             window_half_width_m: 3.0,
             features_per_side: 32,
             track_max_misses: 5,
+            corner_threshold: 2000,
         }
     }
 }
@@ -178,6 +182,7 @@ impl MountFile {
             },
             features_per_side: o.features_per_side,
             track_max_misses: o.track_max_misses,
+            corner_threshold: o.corner_threshold,
         }
     }
 }
