@@ -3,7 +3,7 @@
 //! interest), so that no invalid setting and no per-config computation reaches the per-frame path.
 
 use crate::motion::CameraLift;
-use crate::projection::{Attitude, GroundPoint, GroundProjection, Intrinsics, Mount};
+use crate::projection::{Attitude, GroundPoint, GroundProjection, Homography, Intrinsics, Mount};
 use core::fmt;
 
 /// Size of the camera's frames, pixels.
@@ -41,6 +41,61 @@ pub struct GroundWindow {
     pub half_width_m: f32,
 }
 
+/// Which estimator turns matched features into motion.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Method {
+    /// The default: a joint vote over the frame's pitch, heading change and distance, each
+    /// feature backprojected exactly per pitch hypothesis (see the `pitch_vote` module).
+    #[default]
+    PitchVote,
+    /// The paper's §2 as written: observation and prediction quadrilaterals, overlap matching,
+    /// a vote over the dynamics patch, centre of gravity above 70% of the peak.
+    Paper,
+}
+
+/// Settings of the default method's vote (BRIEF §7).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PitchVoteSettings {
+    /// Body pitch hypotheses span +- this, radians (1 deg).
+    pub pitch_range_rad: f32,
+    /// Number of pitch hypotheses, odd so that level is one of them (21: 0.1 deg steps); at
+    /// most [`MAX_PITCH_HYPOTHESES`].
+    pub pitch_steps: u8,
+    /// Half width of the heading-change window around the previous motion, radians per frame
+    /// (1 deg): wide enough to see real changes, unlike the paper's 0.1 deg patch.
+    pub heading_half_rad: f32,
+    /// Half width of the distance window around the previous motion, metres per frame (0.3 m).
+    pub distance_half_m: f32,
+    /// Largest lateral residual of a track and an observation that still votes, metres (4 cm).
+    pub lateral_tolerance_m: f32,
+    /// Heading window half width with no previous motion, radians (2 deg).
+    pub startup_heading_half_rad: f32,
+    /// Distance window upper end with no previous motion, metres per frame (2.6 m: 94 km/h at
+    /// 10 frames/s); the lower end is 0.
+    pub startup_distance_max_m: f32,
+}
+
+impl Default for PitchVoteSettings {
+    /// BRIEF §7's prototype: 21 pitches over +-1 deg, a +-1 deg by +-0.3 m window, 4 cm.
+    fn default() -> Self {
+        const DEG: f32 = core::f32::consts::PI / 180.0;
+        Self {
+            pitch_range_rad: 1.0 * DEG,
+            pitch_steps: 21,
+            heading_half_rad: 1.0 * DEG,
+            distance_half_m: 0.3,
+            lateral_tolerance_m: 0.04,
+            startup_heading_half_rad: 2.0 * DEG,
+            startup_distance_max_m: 2.6,
+        }
+    }
+}
+
+/// Most pitch hypotheses the default method may use.
+pub const MAX_PITCH_HYPOTHESES: usize = 31;
+
 /// Everything the odometer needs to know, in physical units. Build one, then
 /// [`validate`](Config::validate) it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -63,6 +118,13 @@ pub struct Config {
     pub features_per_side: u16,
     /// Frames a track may go unmatched before it is dropped (paper: 3 to 5).
     pub track_max_misses: u8,
+    /// Which estimator to run.
+    pub method: Method,
+    /// The default method's vote.
+    pub pitch_vote: PitchVoteSettings,
+    /// Below this ratio of matched tracks to detected features the frame falls back to the
+    /// previous motion (paper §5: 1/8).
+    pub min_inlier_ratio: f32,
     /// Smallest Harris response a corner needs, in units of (Sobel gradient)^4 / 2^16; 2000 is
     /// about a 25-grey-level step at a right-angled corner. Sensor noise of 2 grey levels scores
     /// under 10.
@@ -111,6 +173,21 @@ pub enum ConfigError {
     /// The ground window's image is narrower or shorter than [`MIN_ROI_PX`] pixels: too few to
     /// find corners in.
     RoiTooSmall,
+    /// A setting of the default method's vote is out of range; `field` names it.
+    PitchVoteOutOfRange {
+        /// The setting, as `section.name`.
+        field: &'static str,
+    },
+    /// A ratio is outside 0 to 1; `field` names it.
+    RatioOutOfRange {
+        /// The setting, as `section.name`.
+        field: &'static str,
+    },
+    /// A setting asks for more than the odometer's capacity (a const generic parameter).
+    ExceedsCapacity {
+        /// The setting, as `section.name`.
+        field: &'static str,
+    },
     /// A count that sizes the work is zero.
     ZeroCount {
         /// The setting, as `section.name`.
@@ -144,6 +221,15 @@ impl fmt::Display for ConfigError {
                 "the ground window covers less than {MIN_ROI_PX}x{MIN_ROI_PX} pixels of the image"
             ),
             Self::ZeroCount { field } => write!(f, "{field} must be at least 1"),
+            Self::PitchVoteOutOfRange { field } => write!(
+                f,
+                "{field} is out of range (pitch_steps odd, 1 to {MAX_PITCH_HYPOTHESES}; \
+                 angles and distances positive)"
+            ),
+            Self::RatioOutOfRange { field } => write!(f, "{field} must be between 0 and 1"),
+            Self::ExceedsCapacity { field } => {
+                write!(f, "{field} exceeds the odometer's capacity")
+            }
         }
     }
 }
@@ -165,11 +251,24 @@ pub struct ImageRoi {
     pub bottom_px: u16,
 }
 
+/// Body pitch of hypothesis `i` of the default method's vote, radians: evenly spaced over
+/// +-`pitch_range_rad`, level in the middle.
+pub fn pitch_hypothesis_rad(pv: &PitchVoteSettings, i: usize) -> f32 {
+    let half = (usize::from(pv.pitch_steps) / 2) as f32;
+    if half == 0.0 {
+        0.0
+    } else {
+        pv.pitch_range_rad * (i as f32 - half) / half
+    }
+}
+
 /// A [`Config`] that passed validation, with what is derived from it once.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ValidConfig {
     config: Config,
     projection: GroundProjection,
+    /// Homographies of the default method's pitch hypotheses (the first `pitch_steps` are set).
+    pitch_fan: [Homography; MAX_PITCH_HYPOTHESES],
     lift: CameraLift,
     roi: ImageRoi,
 }
@@ -183,6 +282,11 @@ impl ValidConfig {
     /// The nominal and extremal-attitude homographies.
     pub fn projection(&self) -> &GroundProjection {
         &self.projection
+    }
+
+    /// The homographies of the default method's pitch hypotheses, in order of pitch.
+    pub fn pitch_fan(&self) -> &[Homography] {
+        &self.pitch_fan[..usize::from(self.config.pitch_vote.pitch_steps)]
     }
 
     /// Lifts planar poses to KITTI camera poses through the mount.
@@ -274,11 +378,29 @@ impl Config {
                 field: "track_max_misses",
             });
         }
+        self.check_pitch_vote()?;
+        if !(0.0..=1.0).contains(&self.min_inlier_ratio) {
+            return Err(ConfigError::RatioOutOfRange {
+                field: "min_inlier_ratio",
+            });
+        }
         let projection = GroundProjection::new(k, m, self.attitude_bounds)
             .ok_or(ConfigError::DegenerateGeometry)?;
+        let mut pitch_fan = [projection.nominal; MAX_PITCH_HYPOTHESES];
+        let pv = &self.pitch_vote;
+        let steps = usize::from(pv.pitch_steps);
+        for (i, h) in pitch_fan.iter_mut().enumerate().take(steps) {
+            let pitch_rad = pitch_hypothesis_rad(pv, i);
+            let attitude = Attitude {
+                pitch_rad,
+                roll_rad: 0.0,
+            };
+            *h = Homography::new(k, m, attitude).ok_or(ConfigError::DegenerateGeometry)?;
+        }
         let mut valid = ValidConfig {
             config: self,
             projection,
+            pitch_fan,
             lift: CameraLift::new(m),
             roi: ImageRoi {
                 left_px: 0,
@@ -293,6 +415,35 @@ impl Config {
         }
         valid.roi = roi;
         Ok(valid)
+    }
+
+    fn check_pitch_vote(&self) -> Result<(), ConfigError> {
+        let pv = &self.pitch_vote;
+        let bad = |field| Err(ConfigError::PitchVoteOutOfRange { field });
+        let steps = usize::from(pv.pitch_steps);
+        if steps == 0 || steps % 2 == 0 || steps > MAX_PITCH_HYPOTHESES {
+            return bad("pitch_vote.pitch_steps");
+        }
+        if !(0.0..=MAX_ATTITUDE_BOUND_RAD).contains(&pv.pitch_range_rad) {
+            return bad("pitch_vote.pitch_range_rad");
+        }
+        let positive = [
+            (pv.heading_half_rad, "pitch_vote.heading_half_rad"),
+            (pv.distance_half_m, "pitch_vote.distance_half_m"),
+            (pv.lateral_tolerance_m, "pitch_vote.lateral_tolerance_m"),
+            (
+                pv.startup_heading_half_rad,
+                "pitch_vote.startup_heading_half_rad",
+            ),
+            (
+                pv.startup_distance_max_m,
+                "pitch_vote.startup_distance_max_m",
+            ),
+        ];
+        match positive.iter().find(|(v, _)| *v <= 0.0) {
+            Some(&(_, field)) => bad(field),
+            None => Ok(()),
+        }
     }
 
     fn check_finite(&self) -> Result<(), ConfigError> {
@@ -327,6 +478,31 @@ impl Config {
             (w.near_m, "window.near_m"),
             (w.far_m, "window.far_m"),
             (w.half_width_m, "window.half_width_m"),
+            (
+                self.pitch_vote.pitch_range_rad,
+                "pitch_vote.pitch_range_rad",
+            ),
+            (
+                self.pitch_vote.heading_half_rad,
+                "pitch_vote.heading_half_rad",
+            ),
+            (
+                self.pitch_vote.distance_half_m,
+                "pitch_vote.distance_half_m",
+            ),
+            (
+                self.pitch_vote.lateral_tolerance_m,
+                "pitch_vote.lateral_tolerance_m",
+            ),
+            (
+                self.pitch_vote.startup_heading_half_rad,
+                "pitch_vote.startup_heading_half_rad",
+            ),
+            (
+                self.pitch_vote.startup_distance_max_m,
+                "pitch_vote.startup_distance_max_m",
+            ),
+            (self.min_inlier_ratio, "min_inlier_ratio"),
         ];
         match fields.iter().find(|(v, _)| !v.is_finite()) {
             Some(&(_, field)) => Err(ConfigError::NonFinite { field }),
@@ -471,6 +647,9 @@ pub(crate) mod tests {
             features_per_side: 32,
             track_max_misses: 5,
             corner_threshold: 2000,
+            method: Method::PitchVote,
+            pitch_vote: PitchVoteSettings::default(),
+            min_inlier_ratio: 0.125,
         }
     }
 
@@ -548,6 +727,24 @@ pub(crate) mod tests {
             &|c| c.features_per_side = 0,
             ConfigError::ZeroCount {
                 field: "features_per_side",
+            },
+        );
+        check(
+            &|c| c.pitch_vote.pitch_steps = 20,
+            ConfigError::PitchVoteOutOfRange {
+                field: "pitch_vote.pitch_steps",
+            },
+        );
+        check(
+            &|c| c.pitch_vote.lateral_tolerance_m = 0.0,
+            ConfigError::PitchVoteOutOfRange {
+                field: "pitch_vote.lateral_tolerance_m",
+            },
+        );
+        check(
+            &|c| c.min_inlier_ratio = 1.5,
+            ConfigError::RatioOutOfRange {
+                field: "min_inlier_ratio",
             },
         );
         check(

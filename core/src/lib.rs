@@ -18,6 +18,11 @@
 //!   a KITTI camera pose (paper §2.2).
 //! - [`frame`]: the [`Frame`] trait through which images arrive, a row at a time.
 //! - [`harris`]: integer Harris corners inside the ground window, the strongest per side.
+//! - [`vote`]: the motion window and the integer accumulator over it (paper §2.3).
+//! - [`pitch_vote`]: the default method, a joint vote over pitch, heading change and distance.
+//! - [`paper`]: the paper's method as written, for comparison.
+//! - [`tracks`]: the pool of tracked ground features.
+//! - [`odometer`]: [`Odometer::process`], the per-frame flow through all of the above.
 #![no_std]
 #![deny(missing_docs)]
 
@@ -28,12 +33,21 @@ pub mod config;
 pub mod frame;
 pub mod harris;
 pub mod motion;
+pub mod odometer;
+pub mod paper;
+pub mod pitch_vote;
 pub mod projection;
+pub mod tracks;
+pub mod vote;
 
-pub use config::{Config, ConfigError, Dynamics, GroundWindow, ImageRoi, ImageSize, ValidConfig};
+pub use config::{
+    Config, ConfigError, Dynamics, GroundWindow, ImageRoi, ImageSize, Method, PitchVoteSettings,
+    ValidConfig,
+};
 pub use frame::{Frame, SliceFrame};
 pub use harris::{Corner, Corners, HarrisScratch};
 pub use motion::{CameraLift, CameraPose, Motion, Pose2};
+pub use odometer::{Estimate, FrameError, Odometer, Quality};
 pub use projection::{
     Attitude, GroundPoint, GroundProjection, Homography, Intrinsics, Mount, Pixel, Quad,
 };

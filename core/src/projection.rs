@@ -214,7 +214,31 @@ pub struct Quad {
     pub corners: [GroundPoint; 4],
 }
 
+/// Whether the corners of `b` all lie beyond one of `a`'s edges (seen along its normal).
+fn separated(a: &Quad, b: &Quad) -> bool {
+    (0..4).any(|k| {
+        let (p, q) = (a.corners[k], a.corners[(k + 1) % 4]);
+        let (nx, ny) = (p.y_m - q.y_m, q.x_m - p.x_m);
+        let span = |quad: &Quad| {
+            quad.corners
+                .iter()
+                .fold((f32::MAX, f32::MIN), |(lo, hi), c| {
+                    let d = nx * c.x_m + ny * c.y_m;
+                    (lo.min(d), hi.max(d))
+                })
+        };
+        let ((alo, ahi), (blo, bhi)) = (span(a), span(b));
+        ahi < blo || bhi < alo
+    })
+}
+
 impl Quad {
+    /// Whether two convex quadrilaterals overlap (touching counts): the separating-axis test
+    /// over both quadrilaterals' edge normals.
+    pub fn overlaps(&self, other: &Quad) -> bool {
+        !(separated(self, other) || separated(other, self))
+    }
+
     /// The mean of the corners: the paper's best position estimate for the feature.
     pub fn centroid(&self) -> GroundPoint {
         let (sx, sy) = self
@@ -329,6 +353,40 @@ mod tests {
             v_px: 100.0,
         };
         assert!(h.backproject(sky).is_none());
+    }
+
+    #[test]
+    fn quads_overlap_unless_an_edge_separates_them() {
+        let sq = |x: f32, y: f32| Quad {
+            corners: [
+                GroundPoint { x_m: x, y_m: y },
+                GroundPoint {
+                    x_m: x + 1.0,
+                    y_m: y,
+                },
+                GroundPoint {
+                    x_m: x + 1.0,
+                    y_m: y + 1.0,
+                },
+                GroundPoint {
+                    x_m: x,
+                    y_m: y + 1.0,
+                },
+            ],
+        };
+        assert!(sq(0.0, 0.0).overlaps(&sq(0.5, 0.5)));
+        assert!(sq(0.0, 0.0).overlaps(&sq(1.0, 0.0)));
+        assert!(!sq(0.0, 0.0).overlaps(&sq(1.5, 0.0)));
+        // A diamond beside the square's corner: only the diamond's edge separates them.
+        let diamond = Quad {
+            corners: [
+                GroundPoint { x_m: 1.6, y_m: 1.0 },
+                GroundPoint { x_m: 2.2, y_m: 1.6 },
+                GroundPoint { x_m: 1.6, y_m: 2.2 },
+                GroundPoint { x_m: 1.0, y_m: 1.6 },
+            ],
+        };
+        assert!(!sq(0.0, 0.0).overlaps(&diamond));
     }
 
     #[test]

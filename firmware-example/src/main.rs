@@ -7,7 +7,8 @@
 use cortex_m_rt::entry;
 use panic_halt as _;
 use roadvo::{
-    Attitude, Config, Dynamics, GroundWindow, ImageSize, Intrinsics, Motion, Mount, Pixel, Pose2,
+    Attitude, Config, Dynamics, GroundWindow, ImageSize, Intrinsics, Method, Motion, Mount,
+    PitchVoteSettings, Pixel, Pose2,
 };
 
 /// The KITTI camera 0 with the paper's settings.
@@ -48,6 +49,9 @@ fn kitti_config() -> Config {
         features_per_side: 32,
         track_max_misses: 5,
         corner_threshold: 2000,
+        method: Method::PitchVote,
+        pitch_vote: PitchVoteSettings::default(),
+        min_inlier_ratio: 0.125,
     }
 }
 

@@ -1,7 +1,7 @@
 //! Host side of roadvo: everything around the core that needs `std`. Synthetic drives with exact
 //! ground truth ([`scenario`], [`path`], [`render`], [`simulate`]), the KITTI file layout
 //! ([`kitti`]), the mount file users write for their vehicles ([`mount`]), the KITTI metric
-//! ([`eval`]) and plots ([`plot`]). The `roadvo` binary is a thin command line over these.
+//! ([`eval`]), runs of the odometer over a sequence ([`run`]) and plots ([`plot`]). The `roadvo` binary is a thin command line over these.
 
 pub mod eval;
 pub mod kitti;
@@ -9,5 +9,6 @@ pub mod mount;
 pub mod path;
 pub mod plot;
 pub mod render;
+pub mod run;
 pub mod scenario;
 pub mod simulate;

@@ -4,8 +4,11 @@
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use roadvo_sim::eval::{Report, evaluate, format_report};
-use roadvo_sim::kitti::{Pose, read_poses};
+use roadvo_sim::kitti::Sequence;
+use roadvo_sim::kitti::{Pose, read_poses, write_poses};
+use roadvo_sim::mount::MethodName;
 use roadvo_sim::plot::{Track, plot_trajectories};
+use roadvo_sim::run::{RunOutput, mount_for, run_sequence};
 use roadvo_sim::scenario::{BUILT_IN, Scenario};
 use roadvo_sim::simulate::{poses_path, sequence_dir, simulate};
 use std::path::{Path, PathBuf};
@@ -54,7 +57,27 @@ enum Command {
         #[arg(long)]
         plot: Option<PathBuf>,
     },
-    /// Render the paper's s-course, evaluate, and plot: the default demo.
+    /// Run the odometer over a KITTI-layout sequence and write its trajectory.
+    Run {
+        /// The sequence folder (holding image_0/, times.txt, calib.txt).
+        seq_dir: PathBuf,
+        /// Where to write the estimated camera-0 poses (KITTI format).
+        #[arg(long)]
+        out: PathBuf,
+        /// Mount file (default: SEQ_DIR/mount.toml).
+        #[arg(long)]
+        mount: Option<PathBuf>,
+        /// Override the mount file's method.
+        #[arg(long, value_enum)]
+        method: Option<MethodName>,
+        /// Write each frame's estimate and quality as JSON lines.
+        #[arg(long)]
+        quality: Option<PathBuf>,
+        /// Draw the trajectory (with ground truth from SEQ_DIR/../../poses/NN.txt if present).
+        #[arg(long)]
+        plot: Option<PathBuf>,
+    },
+    /// Render the paper's s-course, run both methods, evaluate, and plot: the default demo.
     Demo {
         /// Folder to render into (default: a temporary folder, removed afterwards).
         #[arg(long)]
@@ -159,24 +182,142 @@ fn main() -> Result<()> {
             }
             Ok(())
         }
+        Command::Run {
+            seq_dir,
+            out,
+            mount,
+            method,
+            quality,
+            plot,
+        } => {
+            let seq = Sequence::open(&seq_dir)?;
+            let mount = mount_for(&seq_dir, mount.as_deref())?;
+            let run = run_sequence(&seq, &mount, method, quality.as_deref(), true)?;
+            write_poses(&out, &run.poses)?;
+            print_run_summary(&run, &out);
+            if let Some(p) = plot {
+                let gt = ground_truth_for(&seq_dir).filter(|g| g.exists());
+                let gt_poses = gt.as_deref().map(read_poses).transpose()?;
+                let mut tracks = Vec::new();
+                if let Some(g) = gt_poses.as_deref() {
+                    tracks.push(Track {
+                        label: "ground truth",
+                        poses: g,
+                    });
+                }
+                tracks.push(Track {
+                    label: "estimate",
+                    poses: &run.poses,
+                });
+                let report = gt_poses
+                    .as_deref()
+                    .map(|g| evaluate(g, &run.poses))
+                    .transpose()?;
+                plot_trajectories(&p, &seq_dir.display().to_string(), &tracks, report.as_ref())?;
+                println!("plot written to {}", p.display());
+            }
+            Ok(())
+        }
         Command::Demo { out, seed } => {
             // Dropped (and removed) when the demo ends, unless --out names a folder to keep.
             let tmp = tempfile::Builder::new().prefix("roadvo-demo-").tempdir()?;
             let out = out.unwrap_or_else(|| tmp.path().to_owned());
             let sc = Scenario::built_in("s-course")?;
             render(&sc, &out, seed, None)?;
-            let gt = poses_path(&out);
-            let Evaluated { report, gt: g, .. } = eval_files(&gt, &gt)?;
-            println!("\nground truth against itself (the odometer arrives with the engine):");
-            print!("{}", format_report(&report));
+            let seq_dir = sequence_dir(&out);
+            let seq = Sequence::open(&seq_dir)?;
+            let mount = mount_for(&seq_dir, None)?;
+            let gt = read_poses(&poses_path(&out))?;
+            let mut reports = Vec::new();
+            let mut runs = Vec::new();
+            for (name, method) in [
+                ("default", MethodName::Default),
+                ("paper", MethodName::Paper),
+            ] {
+                let run = run_sequence(&seq, &mount, Some(method), None, true)?;
+                println!(
+                    "{name:>8}: {} frames, {} fallbacks, odometry {:.0} frames/s",
+                    run.estimates.len(),
+                    run.fallbacks(),
+                    run.frames_per_s()
+                );
+                reports.push((name, evaluate(&gt, &run.poses)?));
+                runs.push((name, run));
+            }
+            println!("\n{}", side_by_side(&reports));
             let plot = PathBuf::from("roadvo-demo.png");
-            let tracks = [Track {
+            let mut tracks = vec![Track {
                 label: "ground truth",
-                poses: &g,
+                poses: &gt,
             }];
-            plot_trajectories(&plot, "roadvo demo: s-course", &tracks, Some(&report))?;
+            for (name, run) in &runs {
+                tracks.push(Track {
+                    label: name,
+                    poses: &run.poses,
+                });
+            }
+            plot_trajectories(
+                &plot,
+                "roadvo demo: the paper's s-course",
+                &tracks,
+                Some(&reports[0].1),
+            )?;
             println!("plot written to {}", plot.display());
             Ok(())
         }
     }
+}
+
+/// The ground truth beside a KITTI sequence folder: `SEQ/../../poses/NN.txt`.
+fn ground_truth_for(seq_dir: &Path) -> Option<PathBuf> {
+    let name = seq_dir.canonicalize().ok()?.file_name()?.to_owned();
+    let root = seq_dir.canonicalize().ok()?.parent()?.parent()?.to_owned();
+    Some(root.join("poses").join(name).with_extension("txt"))
+}
+
+fn print_run_summary(run: &RunOutput, out: &Path) {
+    let n = run.estimates.len();
+    println!(
+        "{n} frames, {} fallbacks; odometry {:.1} ms ({:.0} frames/s single-threaded), \
+         PNG decoding {:.1} ms a frame; trajectory written to {}",
+        run.fallbacks(),
+        1e3 * run.odometry.as_secs_f64() / n.max(1) as f64,
+        run.frames_per_s(),
+        1e3 * run.decode.as_secs_f64() / n.max(1) as f64,
+        out.display()
+    );
+}
+
+/// The main figures of several reports in columns.
+fn side_by_side(reports: &[(&str, Report)]) -> String {
+    /// A figure of a report, formatted.
+    type Figure = fn(&Report) -> String;
+    fn opt(v: Option<f64>, d: usize) -> String {
+        v.map_or("-".to_string(), |x| format!("{x:.d$}"))
+    }
+    let mut s = format!("{:<32}", "method");
+    for (name, _) in reports {
+        s += &format!("{name:>12}");
+    }
+    s.push('\n');
+    let rows: [(&str, Figure); 6] = [
+        ("KITTI t_err (%)", |r| opt(r.t_err_pct, 2)),
+        ("KITTI r_err (deg/m)", |r| opt(r.r_err_deg_per_m, 4)),
+        ("short t_err, 10..50 m (%)", |r| opt(r.short_t_err_pct, 2)),
+        ("short r_err, 10..50 m (deg/m)", |r| {
+            opt(r.short_r_err_deg_per_m, 4)
+        }),
+        ("end-point drift (%)", |r| format!("{:.2}", r.end_drift_pct)),
+        ("final heading error (deg)", |r| {
+            format!("{:.2}", r.end_heading_err_deg)
+        }),
+    ];
+    for (label, f) in rows {
+        s += &format!("{label:<32}");
+        for (_, r) in reports {
+            s += &format!("{:>12}", f(r));
+        }
+        s.push('\n');
+    }
+    s
 }

@@ -20,6 +20,7 @@
 //! roll_deg = 0.0      # positive lifts the camera's left side
 //!
 //! [odometer]
+//! method = "default"                  # or "paper": the paper's method as written
 //! pitch_bound_deg = 1.0               # body pitch on the suspension, each side (paper: 1)
 //! roll_bound_deg = 2.0                # body roll, each side (paper: 2)
 //! max_heading_accel_deg_s2 = 10.0     # paper: 10
@@ -30,10 +31,19 @@
 //! features_per_side = 32              # paper: 32
 //! track_max_misses = 5                # paper: 3 to 5
 //! corner_threshold = 2000             # smallest Harris response (Sobel^4 / 2^16)
+//! min_inlier_ratio = 0.125            # below: keep the previous motion (paper: 1/8)
+//! pitch_range_deg = 1.0               # default method: pitch hypotheses over +-1 deg
+//! pitch_steps = 21                    #   in 0.1 deg steps
+//! heading_window_deg = 1.0            #   heading change window, per frame
+//! distance_window_m = 0.3             #   distance window, per frame
+//! lateral_tolerance_m = 0.04          #   largest residual that votes
 //! ```
 
 use anyhow::{Context, Result};
-use roadvo::{Attitude, Config, Dynamics, GroundWindow, ImageSize, Intrinsics, Mount};
+use roadvo::{
+    Attitude, Config, Dynamics, GroundWindow, ImageSize, Intrinsics, Method, Mount,
+    PitchVoteSettings,
+};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -77,10 +87,34 @@ pub struct MountSection {
     pub roll_deg: f32,
 }
 
-/// `[odometer]`: the method's settings; each defaults to the paper's value.
+/// The estimator, as written in the file.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum MethodName {
+    /// The joint pitch, heading and distance vote.
+    #[default]
+    Default,
+    /// The paper's method as written.
+    Paper,
+}
+
+impl MethodName {
+    /// The core's method.
+    pub fn to_core(self) -> Method {
+        match self {
+            Self::Default => Method::PitchVote,
+            Self::Paper => Method::Paper,
+        }
+    }
+}
+
+/// `[odometer]`: the method's settings; each defaults to the paper's value, or for the default
+/// method's own settings to BRIEF §7's.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct OdometerSection {
+    /// `"default"` or `"paper"`.
+    pub method: MethodName,
     /// Body pitch bound each side, degrees.
     pub pitch_bound_deg: f32,
     /// Body roll bound each side, degrees.
@@ -101,11 +135,24 @@ pub struct OdometerSection {
     pub track_max_misses: u8,
     /// Smallest Harris response of a corner (see the core's `Config::corner_threshold`).
     pub corner_threshold: u32,
+    /// Below this share of matched tracks per detected feature, keep the previous motion.
+    pub min_inlier_ratio: f32,
+    /// Default method: pitch hypotheses span +- this, degrees.
+    pub pitch_range_deg: f32,
+    /// Default method: number of pitch hypotheses (odd).
+    pub pitch_steps: u8,
+    /// Default method: heading window half width per frame, degrees.
+    pub heading_window_deg: f32,
+    /// Default method: distance window half width per frame, metres.
+    pub distance_window_m: f32,
+    /// Default method: largest lateral residual that votes, metres.
+    pub lateral_tolerance_m: f32,
 }
 
 impl Default for OdometerSection {
     fn default() -> Self {
         Self {
+            method: MethodName::Default,
             pitch_bound_deg: 1.0,
             roll_bound_deg: 2.0,
             max_heading_accel_deg_s2: 10.0,
@@ -116,6 +163,12 @@ impl Default for OdometerSection {
             features_per_side: 32,
             track_max_misses: 5,
             corner_threshold: 2000,
+            min_inlier_ratio: 0.125,
+            pitch_range_deg: 1.0,
+            pitch_steps: 21,
+            heading_window_deg: 1.0,
+            distance_window_m: 0.3,
+            lateral_tolerance_m: 0.04,
         }
     }
 }
@@ -183,6 +236,16 @@ impl MountFile {
             features_per_side: o.features_per_side,
             track_max_misses: o.track_max_misses,
             corner_threshold: o.corner_threshold,
+            method: o.method.to_core(),
+            pitch_vote: PitchVoteSettings {
+                pitch_range_rad: o.pitch_range_deg.to_radians(),
+                pitch_steps: o.pitch_steps,
+                heading_half_rad: o.heading_window_deg.to_radians(),
+                distance_half_m: o.distance_window_m,
+                lateral_tolerance_m: o.lateral_tolerance_m,
+                ..PitchVoteSettings::default()
+            },
+            min_inlier_ratio: o.min_inlier_ratio,
         }
     }
 }

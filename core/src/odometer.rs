@@ -1,0 +1,417 @@
+//! The per-frame flow: [`Odometer::process`] reads top-down as the method's steps.
+
+use crate::config::{Method, ValidConfig, pitch_hypothesis_rad};
+use crate::frame::Frame;
+use crate::harris::{self, Corners, HarrisScratch};
+use crate::motion::{Motion, Pose2};
+use crate::paper::PaperScratch;
+use crate::pitch_vote::PitchVoteScratch;
+use crate::projection::GroundPoint;
+use crate::tracks::{Spawn, Tracks};
+use crate::vote::MotionWindow;
+use core::fmt;
+
+/// Why a frame was refused. A refused frame leaves the odometer as it was.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FrameError {
+    /// The frame's size is not the configured one.
+    WrongSize {
+        /// Configured (width, height), pixels.
+        expected: (u16, u16),
+        /// The frame's (width, height), pixels.
+        got: (u16, u16),
+    },
+    /// The timestamp is not after the previous frame's.
+    TimestampNotIncreasing {
+        /// Previous frame's timestamp, microseconds.
+        previous_us: u64,
+        /// This frame's timestamp, microseconds.
+        got_us: u64,
+    },
+}
+
+impl fmt::Display for FrameError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::WrongSize { expected, got } => write!(
+                f,
+                "frame is {}x{} pixels, the configuration expects {}x{}",
+                got.0, got.1, expected.0, expected.1
+            ),
+            Self::TimestampNotIncreasing {
+                previous_us,
+                got_us,
+            } => write!(
+                f,
+                "timestamp {got_us} us does not follow the previous frame's {previous_us} us"
+            ),
+        }
+    }
+}
+
+impl core::error::Error for FrameError {}
+
+/// How much to trust an estimate.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Quality {
+    /// Corners found in the ground window.
+    pub features_detected: u16,
+    /// Tracks held before this frame's update.
+    pub tracks: u16,
+    /// Tracks matched to an observation under the estimated motion.
+    pub tracks_matched: u16,
+    /// Matched tracks over detected features (paper §5; below `min_inlier_ratio` the frame falls
+    /// back).
+    pub inlier_ratio: f32,
+    /// The motion is the previous one, kept because the vote was not trusted.
+    pub fallback: bool,
+    /// The first frame: nothing to compare with, the motion is zero.
+    pub startup: bool,
+    /// Votes at the accumulator's peak (3x3 bins for the default method, the highest bin for the
+    /// paper's).
+    pub vote_peak: u32,
+    /// The body pitch the default method settled on, radians (0 for the paper's method).
+    pub pitch_rad: f32,
+    /// Observations that found no room in the full track pool.
+    pub tracks_refused: u16,
+}
+
+/// The result of one frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Estimate {
+    /// Motion since the previous frame.
+    pub motion: Motion,
+    /// Pose of the vehicle in the vehicle frame of the first frame.
+    pub pose: Pose2,
+    /// How far to trust it.
+    pub quality: Quality,
+}
+
+/// What carries from one frame to the next.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct State {
+    last_timestamp_us: Option<u64>,
+    /// Interval between the last two frames, microseconds (0 before two frames).
+    last_interval_us: u64,
+    /// Motion of the last frame, None before a motion was estimated.
+    motion: Option<Motion>,
+    pose: Pose2,
+    /// Window doublings in force after fallbacks.
+    widen: u8,
+    /// Pitch hypothesis of the last frame.
+    pitch_index: usize,
+}
+
+/// The odometer: every bit of state, sized by its parameters.
+///
+/// - `MAX_TRACKS`: tracked features (default 128: two frames' worth of corners at 32 a side).
+/// - `MAX_FEATURES`: corners kept on each side of straight ahead (default 32, the paper's).
+/// - `GRID`: bins per axis of the vote (default 64: 0.03 deg by 0.94 cm for the default window).
+///
+/// `core::mem::size_of::<Odometer>()` is its whole RAM cost; the defaults' is checked by a
+/// test against a 64 KiB budget.
+#[derive(Clone, Debug)]
+pub struct Odometer<
+    const MAX_TRACKS: usize = 128,
+    const MAX_FEATURES: usize = 32,
+    const GRID: usize = 64,
+> {
+    config: ValidConfig,
+    state: State,
+    tracks: Tracks<MAX_TRACKS>,
+    corners: Corners<MAX_FEATURES>,
+    harris: HarrisScratch,
+    pitch_vote: PitchVoteScratch<MAX_FEATURES, GRID>,
+    paper: PaperScratch<MAX_FEATURES, GRID>,
+    /// Track i's observation in this frame, if matched.
+    observed: [Option<GroundPoint>; MAX_TRACKS],
+}
+
+/// Largest number of window doublings after consecutive fallbacks.
+const MAX_WIDEN: u8 = 3;
+
+impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
+    Odometer<MAX_TRACKS, MAX_FEATURES, GRID>
+{
+    /// An odometer for `config`. Fails if the configuration asks for more corners per side than
+    /// `MAX_FEATURES`, or if `GRID` is too small to vote (under 3) or too large for the
+    /// accumulator's 16-bit cell index (over 255).
+    pub fn new(config: ValidConfig) -> Result<Self, crate::ConfigError> {
+        if usize::from(config.config().features_per_side) > MAX_FEATURES {
+            return Err(crate::ConfigError::ExceedsCapacity {
+                field: "features_per_side",
+            });
+        }
+        if !(3..=255).contains(&GRID) {
+            return Err(crate::ConfigError::ExceedsCapacity { field: "GRID" });
+        }
+        Ok(Self {
+            config,
+            state: State::default(),
+            tracks: Tracks::default(),
+            corners: Corners::default(),
+            harris: HarrisScratch::default(),
+            pitch_vote: PitchVoteScratch::default(),
+            paper: PaperScratch::default(),
+            observed: [None; MAX_TRACKS],
+        })
+    }
+
+    /// The configuration in use.
+    pub fn config(&self) -> &ValidConfig {
+        &self.config
+    }
+
+    /// Forgets every frame: the next one starts a new trajectory at the origin.
+    pub fn reset(&mut self) {
+        self.state = State::default();
+        self.tracks.clear();
+    }
+
+    /// Processes one frame taken at `timestamp_us` (microseconds, increasing).
+    pub fn process<F: Frame + ?Sized>(
+        &mut self,
+        frame: &F,
+        timestamp_us: u64,
+    ) -> Result<Estimate, FrameError> {
+        let interval_us = self.check(frame, timestamp_us)?;
+        // 1. Detect (paper §2, step 1).
+        harris::detect(frame, &self.config, &mut self.harris, &mut self.corners);
+        let detected = self.corners.len();
+        let mut quality = Quality {
+            features_detected: detected as u16,
+            tracks: self.tracks.len() as u16,
+            ..Quality::default()
+        };
+        let Some(interval_us) = interval_us else {
+            // 2. Start-up: the first frame's corners become tracks.
+            quality.startup = true;
+            quality.tracks_refused = self.start_tracks();
+            self.state.last_timestamp_us = Some(timestamp_us);
+            return Ok(Estimate {
+                motion: Motion::ZERO,
+                pose: self.state.pose,
+                quality,
+            });
+        };
+        // 3. Predict the window of plausible motions, vote, match (default or paper method).
+        let prediction = self.predicted_motion(interval_us);
+        let voted = match self.config.config().method {
+            Method::PitchVote => self.vote_pitch(prediction),
+            Method::Paper => self.vote_paper(prediction),
+        };
+        quality.tracks_matched = voted.matched as u16;
+        quality.vote_peak = voted.peak;
+        quality.pitch_rad = voted.pitch_rad;
+        quality.inlier_ratio = if detected == 0 {
+            0.0
+        } else {
+            voted.matched as f32 / detected as f32
+        };
+        // 4. Fall back to steady state where too few features agree (paper §5).
+        let trusted =
+            voted.motion.is_some() && quality.inlier_ratio >= self.config.config().min_inlier_ratio;
+        let motion = match voted.motion {
+            Some(m) if trusted => m,
+            _ => prediction.unwrap_or(Motion::ZERO),
+        };
+        quality.fallback = !trusted;
+        self.state.widen = if trusted {
+            0
+        } else {
+            (self.state.widen + 1).min(MAX_WIDEN)
+        };
+        // 5. Update the tracks (paper §2.3), 6. integrate.
+        quality.tracks_refused = self.update_tracks(motion, trusted);
+        self.state.pose = self.state.pose.advance(motion);
+        self.state.motion = Some(motion);
+        self.state.last_interval_us = interval_us;
+        self.state.last_timestamp_us = Some(timestamp_us);
+        Ok(Estimate {
+            motion,
+            pose: self.state.pose,
+            quality,
+        })
+    }
+
+    /// Refuses a frame of the wrong size or time; otherwise the interval since the previous
+    /// frame (None for the first frame).
+    fn check<F: Frame + ?Sized>(
+        &self,
+        frame: &F,
+        timestamp_us: u64,
+    ) -> Result<Option<u64>, FrameError> {
+        let size = self.config.config().image;
+        let (w, h) = (frame.width(), frame.height());
+        if (w, h) != (size.width_px, size.height_px) {
+            return Err(FrameError::WrongSize {
+                expected: (size.width_px, size.height_px),
+                got: (w, h),
+            });
+        }
+        match self.state.last_timestamp_us {
+            Some(previous_us) if timestamp_us <= previous_us => {
+                Err(FrameError::TimestampNotIncreasing {
+                    previous_us,
+                    got_us: timestamp_us,
+                })
+            }
+            Some(previous_us) => Ok(Some(timestamp_us - previous_us)),
+            None => Ok(None),
+        }
+    }
+
+    /// The previous motion scaled to this frame's interval (constant speed and turn rate);
+    /// None before a motion is known.
+    fn predicted_motion(&self, interval_us: u64) -> Option<Motion> {
+        let m = self.state.motion?;
+        let scale = if self.state.last_interval_us == 0 {
+            1.0
+        } else {
+            interval_us as f32 / self.state.last_interval_us as f32
+        };
+        Some(Motion {
+            heading_change_rad: m.heading_change_rad * scale,
+            distance_m: m.distance_m * scale,
+        })
+    }
+
+    /// Makes tracks of every corner (nominal attitude); returns the refused ones.
+    fn start_tracks(&mut self) -> u16 {
+        let nominal = self.config.projection().nominal;
+        let mut refused = 0;
+        for c in self.corners.iter() {
+            if let Some(g) = nominal.backproject(c.pixel())
+                && self.tracks.spawn(g) == Spawn::Refused
+            {
+                refused += 1;
+            }
+        }
+        refused
+    }
+
+    /// The default method (see [`crate::pitch_vote`]).
+    fn vote_pitch(&mut self, prediction: Option<Motion>) -> Voted {
+        let cfg = self.config.config();
+        let pv = &cfg.pitch_vote;
+        let startup = MotionWindow {
+            heading_lo_rad: -pv.startup_heading_half_rad,
+            heading_hi_rad: pv.startup_heading_half_rad,
+            distance_lo_m: 0.0,
+            distance_hi_m: pv.startup_distance_max_m,
+        };
+        let window = match prediction {
+            None => startup,
+            Some(m) => {
+                // Doubled after each fallback, never past the start-up window's size.
+                let grow = f32::from(1u8 << self.state.widen);
+                let heading_cap = pv.startup_heading_half_rad.max(pv.heading_half_rad);
+                let distance_cap = pv.startup_distance_max_m.max(pv.distance_half_m);
+                MotionWindow::around(
+                    m,
+                    (pv.heading_half_rad * grow).min(heading_cap),
+                    (pv.distance_half_m * grow).min(distance_cap),
+                )
+            }
+        };
+        let outcome = self.pitch_vote.estimate(
+            &self.config,
+            self.tracks.as_slice(),
+            &self.corners,
+            &window,
+            self.state.pitch_index,
+        );
+        let Some(outcome) = outcome else {
+            // No pair voted: every observation (at the previous pitch) starts a track.
+            let h = self.config.pitch_fan()[self.state.pitch_index];
+            self.pitch_vote.observe(&self.corners, &h);
+            self.pitch_vote.forget_matches();
+            let n = self.tracks.len();
+            self.observed[..n].fill(None);
+            return Voted::default();
+        };
+        self.state.pitch_index = outcome.pitch_index;
+        // Along the chord a match may be off by the bins the centre of gravity spans.
+        let along = 2.0 * window.distance_step_m(GRID) + pv.lateral_tolerance_m;
+        let n = self.tracks.len();
+        let matched = self.pitch_vote.match_tracks(
+            self.tracks.as_slice(),
+            outcome.motion,
+            pv.lateral_tolerance_m,
+            along,
+            &mut self.observed[..n],
+        );
+        Voted {
+            motion: Some(outcome.motion),
+            matched,
+            peak: outcome.peak.score,
+            pitch_rad: pitch_hypothesis_rad(pv, outcome.pitch_index),
+        }
+    }
+
+    /// The paper's method (see [`crate::paper`]).
+    fn vote_paper(&mut self, prediction: Option<Motion>) -> Voted {
+        let n = self.tracks.len();
+        let outcome = self.paper.estimate(
+            &self.config,
+            self.tracks.as_slice(),
+            &self.corners,
+            prediction,
+            &mut self.observed[..n],
+        );
+        Voted {
+            motion: outcome.motion,
+            matched: outcome.matched,
+            peak: outcome.peak,
+            pitch_rad: 0.0,
+        }
+    }
+
+    /// Moves the tracks into this frame and starts tracks from unmatched observations; returns
+    /// the observations refused by a full pool.
+    fn update_tracks(&mut self, motion: Motion, trusted: bool) -> u16 {
+        // Observations that matched an untrusted vote still start no track: their tracks carry on.
+        let n = self.tracks.len();
+        if !trusted {
+            // An untrusted vote's matches are not evidence: carry every track along.
+            self.observed[..n].fill(None);
+        }
+        let cfg = &self.config;
+        let max_misses = cfg.config().track_max_misses;
+        // Tracks that left the window (passed under the camera, drifted aside) cannot be seen.
+        self.tracks
+            .update(motion, &self.observed[..n], max_misses, |g| {
+                cfg.in_window(g)
+            });
+        match cfg.config().method {
+            Method::PitchVote => spawn_all(&mut self.tracks, self.pitch_vote.unmatched()),
+            Method::Paper => spawn_all(&mut self.tracks, self.paper.unmatched()),
+        }
+    }
+}
+
+/// Starts a track at each observation; returns how many a full pool refused.
+fn spawn_all<const N: usize>(
+    tracks: &mut Tracks<N>,
+    observations: impl Iterator<Item = GroundPoint>,
+) -> u16 {
+    let mut refused = 0u16;
+    for g in observations {
+        if tracks.spawn(g) == Spawn::Refused {
+            refused = refused.saturating_add(1);
+        }
+    }
+    refused
+}
+
+/// What a method's vote produced.
+#[derive(Clone, Copy, Debug, Default)]
+struct Voted {
+    motion: Option<Motion>,
+    matched: usize,
+    peak: u32,
+    pitch_rad: f32,
+}

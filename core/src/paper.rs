@@ -1,0 +1,325 @@
+//! The paper's method (§2.2 and §2.3) as written, kept reproducible for comparison.
+//!
+//! 1. **Observation regions.** Each corner backprojects under the four extremal body attitudes
+//!    into a quadrilateral on the ground ([`GroundProjection::observe`]).
+//! 2. **Prediction regions.** The plausible motions form a patch: the previous motion +- the
+//!    dynamics limits times the frame interval squared (10 deg/s^2 and 1.5 m/s^2 by default).
+//!    Each track moved by the patch's four corner motions gives its prediction quadrilateral.
+//! 3. **Matching.** A track and an observation match where their quadrilaterals overlap
+//!    (separating-axis test). With fewer matched tracks than `min_inlier_ratio` of the detected
+//!    features, the patch doubles, up to `MAX_WIDEN` times.
+//! 4. **Vote.** A `GRID x GRID` accumulator over the patch. Each matched track votes once for
+//!    every bin whose motion moves it inside one of its overlapping observation regions. The
+//!    motion-to-position map is affine to well under a millimetre over the patch, so each
+//!    observation region is mapped into bin coordinates and filled row by row.
+//! 5. **Estimate.** The centre of gravity of the bins holding at least 70% of the highest count.
+//!
+//! Open points the paper leaves, decided here:
+//! - *Start-up*: with no previous motion the patch is the default method's start-up window
+//!   (heading +-2 deg, distance 0 to 2.6 m per frame).
+//! - *Several overlapping observations*: a matched track takes the centroid of the overlapping
+//!   observation region whose centroid lies nearest its prediction under the estimate.
+//! - *Grid*: the odometer's `GRID` (64): finer than the paper's noise, so the bins do not limit it.
+
+use crate::config::ValidConfig;
+use crate::harris::Corners;
+use crate::motion::Motion;
+use crate::projection::{GroundPoint, Quad};
+use crate::tracks::Track;
+use crate::vote::{MotionWindow, VoteGrid};
+use heapless::Vec;
+
+/// Most patch doublings while too few tracks match.
+const MAX_WIDEN: u8 = 4;
+/// Share of the peak that counts in the centre of gravity (paper §2.3: 70%).
+const PEAK_FRACTION: f32 = 0.7;
+
+/// Working memory of the paper's method; holds nothing between frames.
+#[derive(Clone, Debug)]
+pub struct PaperScratch<const F: usize, const GRID: usize> {
+    grid: VoteGrid<GRID>,
+    /// Observation regions, left and right of straight ahead.
+    quads: [Vec<Quad, F>; 2],
+    /// Which observation regions some track overlapped.
+    used: [[bool; F]; 2],
+    /// Bins one track votes for: one bit per distance bin, a word per heading bin.
+    bits: [[u64; 4]; GRID],
+}
+
+impl<const F: usize, const GRID: usize> Default for PaperScratch<F, GRID> {
+    fn default() -> Self {
+        Self {
+            grid: VoteGrid::default(),
+            quads: [Vec::new(), Vec::new()],
+            used: [[false; F]; 2],
+            bits: [[0; 4]; GRID],
+        }
+    }
+}
+
+/// What the paper's method found.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PaperOutcome {
+    /// The estimated motion, None when nothing voted.
+    pub motion: Option<Motion>,
+    /// Tracks whose prediction overlapped an observation.
+    pub matched: usize,
+    /// Votes in the highest bin.
+    pub peak: u32,
+}
+
+/// The four corner motions of a patch moved `p` to; in this order they go round the region.
+fn prediction_quad(p: GroundPoint, w: &MotionWindow) -> Quad {
+    let at = |a, v| {
+        Motion {
+            heading_change_rad: a,
+            distance_m: v,
+        }
+        .move_point(p)
+    };
+    Quad {
+        corners: [
+            at(w.heading_lo_rad, w.distance_lo_m),
+            at(w.heading_hi_rad, w.distance_lo_m),
+            at(w.heading_hi_rad, w.distance_hi_m),
+            at(w.heading_lo_rad, w.distance_hi_m),
+        ],
+    }
+}
+
+impl<const F: usize, const GRID: usize> PaperScratch<F, GRID> {
+    /// Estimates the motion and fills `observed` (one slot per track) with matched tracks'
+    /// new positions.
+    pub fn estimate(
+        &mut self,
+        cfg: &ValidConfig,
+        tracks: &[Track],
+        corners: &Corners<F>,
+        prediction: Option<Motion>,
+        observed: &mut [Option<GroundPoint>],
+    ) -> PaperOutcome {
+        let proj = cfg.projection();
+        for (side, heap) in self.quads.iter_mut().zip([&corners.left, &corners.right]) {
+            side.clear();
+            for c in heap.iter() {
+                if let Some(q) = proj.observe(c.pixel()) {
+                    let _ = side.push(q);
+                }
+            }
+        }
+        let c = cfg.config();
+        let pv = &c.pitch_vote;
+        let needed = c.min_inlier_ratio * corners.len() as f32;
+        let mut window = match prediction {
+            None => MotionWindow {
+                heading_lo_rad: -pv.startup_heading_half_rad,
+                heading_hi_rad: pv.startup_heading_half_rad,
+                distance_lo_m: 0.0,
+                distance_hi_m: pv.startup_distance_max_m,
+            },
+            // Per-frame change limits; the interval is taken as the nominal 0.1 s when unknown.
+            Some(m) => {
+                let dt2 = 0.01;
+                MotionWindow::around(
+                    m,
+                    c.dynamics.max_heading_accel_rad_s2 * dt2,
+                    c.dynamics.max_longitudinal_accel_m_s2 * dt2,
+                )
+            }
+        };
+        let mut matched = self.count_matches(tracks, &window);
+        for _ in 0..MAX_WIDEN {
+            if matched as f32 >= needed {
+                break;
+            }
+            let centre =
+                window.motion_at((GRID as f32 - 1.0) * 0.5, (GRID as f32 - 1.0) * 0.5, GRID);
+            let (ha, hd) = (
+                window.heading_hi_rad - centre.heading_change_rad,
+                window.distance_hi_m - centre.distance_m,
+            );
+            window = MotionWindow::around(centre, 2.0 * ha, 2.0 * hd);
+            matched = self.count_matches(tracks, &window);
+        }
+        self.grid.clear();
+        for t in tracks {
+            self.vote_track(t.ground, &window);
+        }
+        let Some(peak) = self.grid.centre_above(PEAK_FRACTION) else {
+            observed.fill(None);
+            self.used = [[false; F]; 2];
+            return PaperOutcome::default();
+        };
+        let motion = window.motion_at(peak.heading_bin, peak.distance_bin, GRID);
+        self.used = [[false; F]; 2];
+        for (t, slot) in tracks.iter().zip(observed.iter_mut()) {
+            let region = prediction_quad(t.ground, &window);
+            let predicted = motion.move_point(t.ground);
+            let mut best: Option<(f32, GroundPoint)> = None;
+            for (side, quads) in self.quads.iter().enumerate() {
+                for (k, q) in quads.iter().enumerate() {
+                    if q.overlaps(&region) {
+                        self.used[side][k] = true;
+                        let c = q.centroid();
+                        let d = libm::hypotf(c.x_m - predicted.x_m, c.y_m - predicted.y_m);
+                        if best.is_none_or(|b| d < b.0) {
+                            best = Some((d, c));
+                        }
+                    }
+                }
+            }
+            *slot = best.map(|b| b.1);
+        }
+        PaperOutcome {
+            motion: Some(motion),
+            matched,
+            peak: peak.score,
+        }
+    }
+
+    /// Tracks whose prediction region overlaps some observation region.
+    fn count_matches(&self, tracks: &[Track], w: &MotionWindow) -> usize {
+        tracks
+            .iter()
+            .filter(|t| {
+                let region = prediction_quad(t.ground, w);
+                self.quads.iter().flatten().any(|q| q.overlaps(&region))
+            })
+            .count()
+    }
+
+    /// One track's votes: each bin whose motion moves it into an observation region it overlaps.
+    fn vote_track(&mut self, p: GroundPoint, w: &MotionWindow) {
+        let region = prediction_quad(p, w);
+        // The affine map from bin (i, j) to the predicted position.
+        let last = (GRID - 1) as f32;
+        let at = |i: f32, j: f32| w.motion_at(i, j, GRID).move_point(p);
+        let o = at(0.0, 0.0);
+        let (pi, pj) = (at(last, 0.0), at(0.0, last));
+        let a = ((pi.x_m - o.x_m) / last, (pi.y_m - o.y_m) / last);
+        let b = ((pj.x_m - o.x_m) / last, (pj.y_m - o.y_m) / last);
+        let det = a.0 * b.1 - a.1 * b.0;
+        if det.abs() < 1e-12 {
+            return;
+        }
+        let to_bins = |g: GroundPoint| {
+            let (dx, dy) = (g.x_m - o.x_m, g.y_m - o.y_m);
+            ((dx * b.1 - dy * b.0) / det, (a.0 * dy - a.1 * dx) / det)
+        };
+        self.bits = [[0; 4]; GRID];
+        let mut any = false;
+        for q in self.quads.iter().flatten() {
+            if !q.overlaps(&region) {
+                continue;
+            }
+            any = true;
+            let corners = q.corners.map(to_bins);
+            fill_rows(&corners, &mut self.bits);
+        }
+        if !any {
+            return;
+        }
+        for (i, row) in self.bits.iter().enumerate() {
+            for (word, &bits) in row.iter().enumerate() {
+                let mut b = bits;
+                while b != 0 {
+                    let j = word * 64 + b.trailing_zeros() as usize;
+                    self.grid.add(i, j);
+                    b &= b - 1;
+                }
+            }
+        }
+    }
+
+    /// Observation regions no track overlapped, as centroids: they start tracks.
+    pub fn unmatched(&self) -> impl Iterator<Item = GroundPoint> + '_ {
+        self.quads.iter().zip(&self.used).flat_map(|(qs, used)| {
+            qs.iter()
+                .zip(used)
+                .filter(|(_, u)| !**u)
+                .map(|(q, _)| q.centroid())
+        })
+    }
+}
+
+/// Sets the bits of every bin centre inside the convex quadrilateral `q` (bin coordinates).
+fn fill_rows<const GRID: usize>(q: &[(f32, f32); 4], bits: &mut [[u64; 4]; GRID]) {
+    let lo = q.iter().map(|c| c.0).fold(f32::MAX, f32::min);
+    let hi = q.iter().map(|c| c.0).fold(f32::MIN, f32::max);
+    let first = libm::ceilf(lo).max(0.0);
+    let last = libm::floorf(hi).min((GRID - 1) as f32);
+    if first > last {
+        return;
+    }
+    for (i, row) in bits
+        .iter_mut()
+        .enumerate()
+        .take(last as usize + 1)
+        .skip(first as usize)
+    {
+        let x = i as f32;
+        let (mut jlo, mut jhi) = (f32::MAX, f32::MIN);
+        for k in 0..4 {
+            let (a, b) = (q[k], q[(k + 1) % 4]);
+            if (a.0 <= x && x <= b.0) || (b.0 <= x && x <= a.0) {
+                let j = if (b.0 - a.0).abs() < 1e-12 {
+                    // An edge along the row: both ends count.
+                    jlo = jlo.min(a.1.min(b.1));
+                    a.1.max(b.1)
+                } else {
+                    a.1 + (x - a.0) * (b.1 - a.1) / (b.0 - a.0)
+                };
+                jlo = jlo.min(j);
+                jhi = jhi.max(j);
+            }
+        }
+        let j0 = libm::ceilf(jlo).max(0.0);
+        let j1 = libm::floorf(jhi).min((GRID - 1).min(255) as f32);
+        if j0 > j1 {
+            continue;
+        }
+        for j in j0 as usize..=j1 as usize {
+            if let Some(word) = row.get_mut(j / 64) {
+                *word |= 1 << (j % 64);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fill_rows_marks_bins_inside() {
+        let mut bits = [[0u64; 4]; 8];
+        fill_rows(&[(1.0, 1.0), (3.0, 1.0), (3.0, 4.0), (1.0, 4.0)], &mut bits);
+        for (i, row) in bits.iter().enumerate() {
+            let expect = if (1..=3).contains(&i) { 0b11110 } else { 0 };
+            assert_eq!(row[0], expect, "row {i}");
+        }
+    }
+
+    #[test]
+    fn prediction_region_contains_the_centre_motion() {
+        let w = MotionWindow::around(
+            Motion {
+                heading_change_rad: 0.01,
+                distance_m: 1.0,
+            },
+            0.002,
+            0.05,
+        );
+        let p = GroundPoint { x_m: 8.0, y_m: 1.0 };
+        let q = prediction_quad(p, &w);
+        let c = Motion {
+            heading_change_rad: 0.01,
+            distance_m: 1.0,
+        }
+        .move_point(p);
+        let probe = Quad {
+            corners: [c, c, c, c],
+        };
+        assert!(q.overlaps(&probe));
+    }
+}

@@ -1,0 +1,170 @@
+//! Tracked ground features (paper §2.3, last step): each holds a position on the road in the
+//! vehicle frame of the last processed frame. Matched tracks take their new observation,
+//! unmatched ones are carried along by the estimated motion and dropped after too many misses,
+//! unmatched observations start tracks.
+//!
+//! Pool policy when full: a new observation replaces the track with the most misses, if that
+//! track has missed at least once; otherwise the observation is refused and counted. Tracks that
+//! have been seen recently are never evicted for ones not yet seen twice.
+
+use crate::motion::Motion;
+use crate::projection::GroundPoint;
+use heapless::Vec;
+
+/// One tracked feature.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Track {
+    /// Position on the road, vehicle frame of the last processed frame.
+    pub ground: GroundPoint,
+    /// Consecutive frames without a match.
+    pub misses: u8,
+    /// Frames since the track started.
+    pub age: u16,
+}
+
+/// What [`Tracks::spawn`] did with an observation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Spawn {
+    /// Stored in a free slot.
+    Added,
+    /// Stored in place of the track with the most misses.
+    Evicted,
+    /// Not stored: the pool is full of tracks seen in the last frame.
+    Refused,
+}
+
+/// A fixed-capacity pool of tracks.
+#[derive(Clone, Debug, Default)]
+pub struct Tracks<const N: usize> {
+    items: Vec<Track, N>,
+}
+
+impl<const N: usize> Tracks<N> {
+    /// Tracks held.
+    pub fn len(&self) -> usize {
+        self.items.len()
+    }
+
+    /// Whether the pool is empty.
+    pub fn is_empty(&self) -> bool {
+        self.items.is_empty()
+    }
+
+    /// The tracks, oldest first unless evictions reordered them.
+    pub fn as_slice(&self) -> &[Track] {
+        &self.items
+    }
+
+    /// Drops every track.
+    pub fn clear(&mut self) {
+        self.items.clear();
+    }
+
+    /// Moves every track into the current vehicle frame: track `i` takes `observed[i]` where
+    /// given, otherwise it is carried by `motion` and counts a miss. Tracks missed more than
+    /// `max_misses` times in a row, or whose new position fails `keep`, are dropped.
+    pub fn update(
+        &mut self,
+        motion: Motion,
+        observed: &[Option<GroundPoint>],
+        max_misses: u8,
+        keep: impl Fn(GroundPoint) -> bool,
+    ) {
+        for (i, t) in self.items.iter_mut().enumerate() {
+            match observed.get(i).copied().flatten() {
+                Some(g) => {
+                    t.ground = g;
+                    t.misses = 0;
+                }
+                None => {
+                    t.ground = motion.move_point(t.ground);
+                    t.misses = t.misses.saturating_add(1);
+                }
+            }
+            t.age = t.age.saturating_add(1);
+        }
+        self.items
+            .retain(|t| t.misses <= max_misses && keep(t.ground));
+    }
+
+    /// Starts a track at `ground` (see the module docs for the policy when full).
+    pub fn spawn(&mut self, ground: GroundPoint) -> Spawn {
+        let track = Track {
+            ground,
+            misses: 0,
+            age: 0,
+        };
+        if self.items.push(track).is_ok() {
+            return Spawn::Added;
+        }
+        let worst = self
+            .items
+            .iter_mut()
+            .filter(|t| t.misses > 0)
+            .max_by_key(|t| (t.misses, t.age));
+        match worst {
+            Some(slot) => {
+                *slot = track;
+                Spawn::Evicted
+            }
+            None => Spawn::Refused,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn at(x: f32) -> GroundPoint {
+        GroundPoint { x_m: x, y_m: 0.0 }
+    }
+
+    #[test]
+    fn a_track_whose_observation_disappears_is_dropped_after_n_frames() {
+        let mut t = Tracks::<4>::default();
+        t.spawn(at(8.0));
+        let still = Motion::ZERO;
+        for frame in 1..=3 {
+            t.update(still, &[], 3, |_| true);
+            assert_eq!(t.len(), 1, "kept through miss {frame}");
+        }
+        t.update(still, &[], 3, |_| true);
+        assert!(t.is_empty());
+    }
+
+    #[test]
+    fn matched_tracks_take_their_observation_and_unmatched_ones_move() {
+        let mut t = Tracks::<4>::default();
+        t.spawn(at(8.0));
+        t.spawn(at(10.0));
+        let m = Motion {
+            heading_change_rad: 0.0,
+            distance_m: 1.0,
+        };
+        t.update(m, &[Some(at(7.1)), None], 3, |_| true);
+        let s = t.as_slice();
+        assert_eq!((s[0].ground, s[0].misses), (at(7.1), 0));
+        assert_eq!((s[1].ground, s[1].misses), (at(9.0), 1));
+        // Tracks failing `keep` (say, behind the camera) go.
+        t.update(m, &[], 3, |g| g.x_m > 8.5);
+        assert_eq!(t.len(), 0);
+    }
+
+    #[test]
+    fn a_full_pool_evicts_the_most_missed_and_never_panics() {
+        let mut t = Tracks::<2>::default();
+        assert_eq!(t.spawn(at(1.0)), Spawn::Added);
+        assert_eq!(t.spawn(at(2.0)), Spawn::Added);
+        assert_eq!(t.spawn(at(3.0)), Spawn::Refused);
+        t.update(Motion::ZERO, &[Some(at(1.0))], 5, |_| true);
+        assert_eq!(t.spawn(at(4.0)), Spawn::Evicted);
+        assert_eq!(t.as_slice()[1].ground, at(4.0));
+        for _ in 0..100 {
+            t.spawn(at(5.0));
+        }
+        assert_eq!(t.len(), 2);
+    }
+}

@@ -1,0 +1,253 @@
+//! The Hough-like vote (paper §2.3): an integer accumulator over a window of motions, heading
+//! change by distance, and the ways to read an estimate out of it.
+
+use crate::motion::Motion;
+
+/// A rectangle of motions: heading change by distance per frame. Bin `(i, j)` of a `GRID x GRID`
+/// accumulator covers heading bin `i` and distance bin `j`; bin centres sit half a bin in.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MotionWindow {
+    /// Lowest heading change, radians.
+    pub heading_lo_rad: f32,
+    /// Highest heading change, radians.
+    pub heading_hi_rad: f32,
+    /// Shortest distance, metres.
+    pub distance_lo_m: f32,
+    /// Longest distance, metres.
+    pub distance_hi_m: f32,
+}
+
+impl MotionWindow {
+    /// The window `centre +- (heading_half_rad, distance_half_m)`.
+    pub fn around(centre: Motion, heading_half_rad: f32, distance_half_m: f32) -> Self {
+        Self {
+            heading_lo_rad: centre.heading_change_rad - heading_half_rad,
+            heading_hi_rad: centre.heading_change_rad + heading_half_rad,
+            distance_lo_m: centre.distance_m - distance_half_m,
+            distance_hi_m: centre.distance_m + distance_half_m,
+        }
+    }
+
+    /// Heading change at the centre of heading bin `i` (fractional bins allowed).
+    pub fn heading_at(&self, i: f32, grid: usize) -> f32 {
+        self.heading_lo_rad + (i + 0.5) * (self.heading_hi_rad - self.heading_lo_rad) / grid as f32
+    }
+
+    /// Distance at the centre of distance bin `j` (fractional bins allowed).
+    pub fn distance_at(&self, j: f32, grid: usize) -> f32 {
+        self.distance_lo_m + (j + 0.5) * (self.distance_hi_m - self.distance_lo_m) / grid as f32
+    }
+
+    /// The distance bin holding `distance_m`, if inside the window.
+    pub fn distance_bin(&self, distance_m: f32, grid: usize) -> Option<usize> {
+        let f = (distance_m - self.distance_lo_m) / (self.distance_hi_m - self.distance_lo_m);
+        // NaN is in no range.
+        (0.0..1.0)
+            .contains(&f)
+            .then(|| ((f * grid as f32) as usize).min(grid - 1))
+    }
+
+    /// Heading bin width, radians.
+    pub fn heading_step_rad(&self, grid: usize) -> f32 {
+        (self.heading_hi_rad - self.heading_lo_rad) / grid as f32
+    }
+
+    /// Distance bin width, metres.
+    pub fn distance_step_m(&self, grid: usize) -> f32 {
+        (self.distance_hi_m - self.distance_lo_m) / grid as f32
+    }
+
+    /// The motion at fractional bin `(i, j)`.
+    pub fn motion_at(&self, i: f32, j: f32, grid: usize) -> Motion {
+        Motion {
+            heading_change_rad: self.heading_at(i, grid),
+            distance_m: self.distance_at(j, grid),
+        }
+    }
+}
+
+/// The accumulator: `cells[i][j]` counts votes for heading bin `i`, distance bin `j`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VoteGrid<const GRID: usize> {
+    cells: [[u16; GRID]; GRID],
+}
+
+impl<const GRID: usize> Default for VoteGrid<GRID> {
+    fn default() -> Self {
+        Self {
+            cells: [[0; GRID]; GRID],
+        }
+    }
+}
+
+/// A peak of the accumulator.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Peak {
+    /// Votes in the 3x3 bins around the highest bin.
+    pub score: u32,
+    /// Fractional heading bin of the centre of gravity.
+    pub heading_bin: f32,
+    /// Fractional distance bin of the centre of gravity.
+    pub distance_bin: f32,
+}
+
+impl<const GRID: usize> VoteGrid<GRID> {
+    /// Sets every bin to zero.
+    pub fn clear(&mut self) {
+        self.cells = [[0; GRID]; GRID];
+    }
+
+    /// Adds one vote; saturates rather than wraps.
+    pub fn add(&mut self, i: usize, j: usize) {
+        if let Some(c) = self.cells.get_mut(i).and_then(|row| row.get_mut(j)) {
+            *c = c.saturating_add(1);
+        }
+    }
+
+    /// Votes in bin `(i, j)`; 0 outside the grid.
+    pub fn get(&self, i: usize, j: usize) -> u16 {
+        self.cells
+            .get(i)
+            .and_then(|row| row.get(j))
+            .copied()
+            .unwrap_or(0)
+    }
+
+    /// The highest bin (first in row order on ties), the votes around it and their centre of
+    /// gravity over its 3x3 neighbourhood: sub-bin resolution from the spread of the votes.
+    /// `None` when the grid is empty.
+    pub fn peak(&self) -> Option<Peak> {
+        let (mut best, mut at) = (0u16, (0usize, 0usize));
+        for (i, row) in self.cells.iter().enumerate() {
+            for (j, &c) in row.iter().enumerate() {
+                if c > best {
+                    best = c;
+                    at = (i, j);
+                }
+            }
+        }
+        if best == 0 {
+            return None;
+        }
+        let (mut sum, mut si, mut sj) = (0u32, 0u32, 0u32);
+        for i in at.0.saturating_sub(1)..=(at.0 + 1).min(GRID - 1) {
+            for j in at.1.saturating_sub(1)..=(at.1 + 1).min(GRID - 1) {
+                let c = u32::from(self.cells[i][j]);
+                sum += c;
+                si += c * i as u32;
+                sj += c * j as u32;
+            }
+        }
+        Some(Peak {
+            score: sum,
+            heading_bin: si as f32 / sum as f32,
+            distance_bin: sj as f32 / sum as f32,
+        })
+    }
+
+    /// The paper's estimate (§2.3): the centre of gravity of every bin holding at least
+    /// `fraction` of the highest count. `None` when the grid is empty.
+    pub fn centre_above(&self, fraction: f32) -> Option<Peak> {
+        let max = self.cells.iter().flatten().copied().max().unwrap_or(0);
+        if max == 0 {
+            return None;
+        }
+        // Integer threshold: ceil(fraction * max).
+        let floor = libm::ceilf(fraction * f32::from(max)) as u32;
+        let (mut sum, mut si, mut sj) = (0u64, 0u64, 0u64);
+        for (i, row) in self.cells.iter().enumerate() {
+            for (j, &c) in row.iter().enumerate() {
+                let c = u32::from(c);
+                if c >= floor {
+                    sum += u64::from(c);
+                    si += u64::from(c) * i as u64;
+                    sj += u64::from(c) * j as u64;
+                }
+            }
+        }
+        Some(Peak {
+            score: u32::from(max),
+            heading_bin: si as f32 / sum as f32,
+            distance_bin: sj as f32 / sum as f32,
+        })
+    }
+
+    /// Share of bins holding at least `fraction` of the highest count (1 for a flat vote).
+    pub fn flatness(&self, fraction: f32) -> f32 {
+        let max = self.cells.iter().flatten().copied().max().unwrap_or(0);
+        let floor = libm::ceilf(fraction * f32::from(max)) as u16;
+        let n = self.cells.iter().flatten().filter(|&&c| c >= floor).count();
+        n as f32 / (GRID * GRID) as f32
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn peak_is_the_centre_of_gravity_around_the_highest_bin() {
+        let mut g = VoteGrid::<8>::default();
+        for _ in 0..4 {
+            g.add(3, 5);
+        }
+        g.add(3, 6);
+        g.add(3, 6);
+        g.add(0, 0);
+        let p = g.peak().unwrap();
+        assert_eq!(p.score, 6);
+        assert!((p.heading_bin - 3.0).abs() < 1e-6);
+        assert!((p.distance_bin - (5.0 * 4.0 + 6.0 * 2.0) / 6.0).abs() < 1e-6);
+        assert!(VoteGrid::<8>::default().peak().is_none());
+    }
+
+    #[test]
+    fn centre_above_keeps_bins_over_the_fraction() {
+        let mut g = VoteGrid::<4>::default();
+        for _ in 0..10 {
+            g.add(1, 1);
+        }
+        for _ in 0..7 {
+            g.add(1, 3);
+        }
+        for _ in 0..6 {
+            g.add(3, 3);
+        }
+        let p = g.centre_above(0.7).unwrap();
+        assert!((p.distance_bin - (10.0 + 21.0) / 17.0).abs() < 1e-6);
+        assert!((p.heading_bin - 1.0).abs() < 1e-6);
+        assert!((g.flatness(0.7) - 2.0 / 16.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn window_bins_round_trip() {
+        let w = MotionWindow::around(
+            Motion {
+                heading_change_rad: 0.01,
+                distance_m: 1.0,
+            },
+            0.02,
+            0.3,
+        );
+        let j = w.distance_bin(1.05, 64).unwrap();
+        assert!((w.distance_at(j as f32, 64) - 1.05).abs() <= 0.5 * w.distance_step_m(64));
+        assert!(w.distance_bin(1.31, 64).is_none());
+        assert!(w.distance_bin(f32::NAN, 64).is_none());
+        let m = w.motion_at(31.5, 31.5, 64);
+        assert!((m.heading_change_rad - 0.01).abs() < 1e-6 && (m.distance_m - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn adding_outside_the_grid_is_ignored() {
+        let mut g = VoteGrid::<4>::default();
+        g.add(4, 0);
+        g.add(0, 9);
+        assert!(g.peak().is_none());
+        for _ in 0..70_000 {
+            g.add(0, 0);
+        }
+        assert_eq!(g.get(0, 0), u16::MAX);
+    }
+}
