@@ -6,8 +6,7 @@ use crate::harris::{self, Corners, HarrisScratch};
 use crate::motion::{Motion, Pose2};
 use crate::paper::PaperScratch;
 use crate::pitch_vote::PitchVoteScratch;
-use crate::projection::GroundPoint;
-use crate::tracks::{Spawn, Tracks};
+use crate::tracks::{Observation, Spawn, Tracks};
 use crate::vote::MotionWindow;
 use core::fmt;
 
@@ -103,6 +102,8 @@ struct State {
     widen: u8,
     /// Pitch hypothesis of the last frame.
     pitch_index: usize,
+    /// The default method's absolute-pitch integrator, steps.
+    pitch_integrator: f32,
 }
 
 /// The odometer: every bit of state, sized by its parameters.
@@ -124,10 +125,10 @@ pub struct Odometer<
     tracks: Tracks<MAX_TRACKS>,
     corners: Corners<MAX_FEATURES>,
     harris: HarrisScratch,
-    pitch_vote: PitchVoteScratch<MAX_FEATURES, GRID>,
+    pitch_vote: PitchVoteScratch<MAX_TRACKS, MAX_FEATURES, GRID>,
     paper: PaperScratch<MAX_FEATURES, GRID>,
     /// Track i's observation in this frame, if matched.
-    observed: [Option<GroundPoint>; MAX_TRACKS],
+    observed: [Option<Observation>; MAX_TRACKS],
 }
 
 /// Largest number of window doublings after consecutive fallbacks.
@@ -148,9 +149,13 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
         if !(3..=255).contains(&GRID) {
             return Err(crate::ConfigError::ExceedsCapacity { field: "GRID" });
         }
+        let level = usize::from(config.config().pitch_vote.pitch_steps / 2);
         Ok(Self {
             config,
-            state: State::default(),
+            state: State {
+                pitch_index: level,
+                ..State::default()
+            },
             tracks: Tracks::default(),
             corners: Corners::default(),
             harris: HarrisScratch::default(),
@@ -167,8 +172,16 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
 
     /// Forgets every frame: the next one starts a new trajectory at the origin.
     pub fn reset(&mut self) {
-        self.state = State::default();
+        self.state = State {
+            pitch_index: self.level_pitch_index(),
+            ..State::default()
+        };
         self.tracks.clear();
+    }
+
+    /// The pitch hypothesis of a level body: the middle one.
+    fn level_pitch_index(&self) -> usize {
+        usize::from(self.config.config().pitch_vote.pitch_steps / 2)
     }
 
     /// Processes one frame taken at `timestamp_us` (microseconds, increasing).
@@ -281,16 +294,13 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
 
     /// Makes tracks of every corner (nominal attitude); returns the refused ones.
     fn start_tracks(&mut self) -> u16 {
-        let nominal = self.config.projection().nominal;
-        let mut refused = 0;
-        for c in self.corners.iter() {
-            if let Some(g) = nominal.backproject(c.pixel())
-                && self.tracks.spawn(g) == Spawn::Refused
-            {
-                refused += 1;
-            }
-        }
-        refused
+        let h = self.config.pitch_fan()[self.state.pitch_index];
+        let seen = self.corners.iter().filter_map(|c| {
+            let pixel = c.pixel();
+            h.backproject(pixel)
+                .map(|ground| Observation { ground, pixel })
+        });
+        spawn_all(&mut self.tracks, seen)
     }
 
     /// The default method (see [`crate::pitch_vote`]).
@@ -323,6 +333,7 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
             &self.corners,
             &window,
             self.state.pitch_index,
+            &mut self.state.pitch_integrator,
         );
         let Some(outcome) = outcome else {
             // No pair voted: every observation (at the previous pitch) starts a track.
@@ -396,7 +407,7 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
 /// Starts a track at each observation; returns how many a full pool refused.
 fn spawn_all<const N: usize>(
     tracks: &mut Tracks<N>,
-    observations: impl Iterator<Item = GroundPoint>,
+    observations: impl Iterator<Item = Observation>,
 ) -> u16 {
     let mut refused = 0u16;
     for g in observations {

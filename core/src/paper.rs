@@ -24,8 +24,8 @@
 use crate::config::ValidConfig;
 use crate::harris::Corners;
 use crate::motion::Motion;
-use crate::projection::{GroundPoint, Quad};
-use crate::tracks::Track;
+use crate::projection::{GroundPoint, Pixel, Quad};
+use crate::tracks::{Observation, Track};
 use crate::vote::{MotionWindow, VoteGrid};
 use heapless::Vec;
 
@@ -38,8 +38,8 @@ const PEAK_FRACTION: f32 = 0.7;
 #[derive(Clone, Debug)]
 pub struct PaperScratch<const F: usize, const GRID: usize> {
     grid: VoteGrid<GRID>,
-    /// Observation regions, left and right of straight ahead.
-    quads: [Vec<Quad, F>; 2],
+    /// Observation regions and their corners' pixels, left and right of straight ahead.
+    quads: [Vec<(Quad, Pixel), F>; 2],
     /// Which observation regions some track overlapped.
     used: [[bool; F]; 2],
     /// Bins one track votes for: one bit per distance bin, a word per heading bin.
@@ -96,14 +96,15 @@ impl<const F: usize, const GRID: usize> PaperScratch<F, GRID> {
         tracks: &[Track],
         corners: &Corners<F>,
         prediction: Option<Motion>,
-        observed: &mut [Option<GroundPoint>],
+        observed: &mut [Option<Observation>],
     ) -> PaperOutcome {
         let proj = cfg.projection();
         for (side, heap) in self.quads.iter_mut().zip([&corners.left, &corners.right]) {
             side.clear();
             for c in heap.iter() {
-                if let Some(q) = proj.observe(c.pixel()) {
-                    let _ = side.push(q);
+                let pixel = c.pixel();
+                if let Some(q) = proj.observe(pixel) {
+                    let _ = side.push((q, pixel));
                 }
             }
         }
@@ -155,15 +156,16 @@ impl<const F: usize, const GRID: usize> PaperScratch<F, GRID> {
         for (t, slot) in tracks.iter().zip(observed.iter_mut()) {
             let region = prediction_quad(t.ground, &window);
             let predicted = motion.move_point(t.ground);
-            let mut best: Option<(f32, GroundPoint)> = None;
+            let mut best: Option<(f32, Observation)> = None;
             for (side, quads) in self.quads.iter().enumerate() {
-                for (k, q) in quads.iter().enumerate() {
+                for (k, (q, pixel)) in quads.iter().enumerate() {
                     if q.overlaps(&region) {
                         self.used[side][k] = true;
                         let c = q.centroid();
                         let d = libm::hypotf(c.x_m - predicted.x_m, c.y_m - predicted.y_m);
                         if best.is_none_or(|b| d < b.0) {
-                            best = Some((d, c));
+                            let pixel = *pixel;
+                            best = Some((d, Observation { ground: c, pixel }));
                         }
                     }
                 }
@@ -183,7 +185,10 @@ impl<const F: usize, const GRID: usize> PaperScratch<F, GRID> {
             .iter()
             .filter(|t| {
                 let region = prediction_quad(t.ground, w);
-                self.quads.iter().flatten().any(|q| q.overlaps(&region))
+                self.quads
+                    .iter()
+                    .flatten()
+                    .any(|(q, _)| q.overlaps(&region))
             })
             .count()
     }
@@ -208,7 +213,7 @@ impl<const F: usize, const GRID: usize> PaperScratch<F, GRID> {
         };
         self.bits = [[0; 4]; GRID];
         let mut any = false;
-        for q in self.quads.iter().flatten() {
+        for (q, _) in self.quads.iter().flatten() {
             if !q.overlaps(&region) {
                 continue;
             }
@@ -224,7 +229,7 @@ impl<const F: usize, const GRID: usize> PaperScratch<F, GRID> {
                 let mut b = bits;
                 while b != 0 {
                     let j = word * 64 + b.trailing_zeros() as usize;
-                    self.grid.add(i, j);
+                    self.grid.add(i, j, 1);
                     b &= b - 1;
                 }
             }
@@ -232,12 +237,15 @@ impl<const F: usize, const GRID: usize> PaperScratch<F, GRID> {
     }
 
     /// Observation regions no track overlapped, as centroids: they start tracks.
-    pub fn unmatched(&self) -> impl Iterator<Item = GroundPoint> + '_ {
+    pub fn unmatched(&self) -> impl Iterator<Item = Observation> + '_ {
         self.quads.iter().zip(&self.used).flat_map(|(qs, used)| {
             qs.iter()
                 .zip(used)
                 .filter(|(_, u)| !**u)
-                .map(|(q, _)| q.centroid())
+                .map(|((q, pixel), _)| Observation {
+                    ground: q.centroid(),
+                    pixel: *pixel,
+                })
         })
     }
 }

@@ -8,8 +8,18 @@
 //! have been seen recently are never evicted for ones not yet seen twice.
 
 use crate::motion::Motion;
-use crate::projection::GroundPoint;
+use crate::projection::{GroundPoint, Pixel};
 use heapless::Vec;
+
+/// A feature seen in a frame: where on the road, and where in the image.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Observation {
+    /// Position on the road, vehicle frame of its frame.
+    pub ground: GroundPoint,
+    /// The corner in the image.
+    pub pixel: Pixel,
+}
 
 /// One tracked feature.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -17,6 +27,8 @@ use heapless::Vec;
 pub struct Track {
     /// Position on the road, vehicle frame of the last processed frame.
     pub ground: GroundPoint,
+    /// Where it was seen in the last processed frame; None if it was not seen there.
+    pub pixel: Option<Pixel>,
     /// Consecutive frames without a match.
     pub misses: u8,
     /// Frames since the track started.
@@ -68,18 +80,20 @@ impl<const N: usize> Tracks<N> {
     pub fn update(
         &mut self,
         motion: Motion,
-        observed: &[Option<GroundPoint>],
+        observed: &[Option<Observation>],
         max_misses: u8,
         keep: impl Fn(GroundPoint) -> bool,
     ) {
         for (i, t) in self.items.iter_mut().enumerate() {
             match observed.get(i).copied().flatten() {
-                Some(g) => {
-                    t.ground = g;
+                Some(o) => {
+                    t.ground = o.ground;
+                    t.pixel = Some(o.pixel);
                     t.misses = 0;
                 }
                 None => {
                     t.ground = motion.move_point(t.ground);
+                    t.pixel = None;
                     t.misses = t.misses.saturating_add(1);
                 }
             }
@@ -89,10 +103,11 @@ impl<const N: usize> Tracks<N> {
             .retain(|t| t.misses <= max_misses && keep(t.ground));
     }
 
-    /// Starts a track at `ground` (see the module docs for the policy when full).
-    pub fn spawn(&mut self, ground: GroundPoint) -> Spawn {
+    /// Starts a track at an observation (see the module docs for the policy when full).
+    pub fn spawn(&mut self, o: Observation) -> Spawn {
         let track = Track {
-            ground,
+            ground: o.ground,
+            pixel: Some(o.pixel),
             misses: 0,
             age: 0,
         };
@@ -122,10 +137,17 @@ mod tests {
         GroundPoint { x_m: x, y_m: 0.0 }
     }
 
+    fn seen(x: f32) -> Observation {
+        Observation {
+            ground: at(x),
+            pixel: Pixel::default(),
+        }
+    }
+
     #[test]
     fn a_track_whose_observation_disappears_is_dropped_after_n_frames() {
         let mut t = Tracks::<4>::default();
-        t.spawn(at(8.0));
+        t.spawn(seen(8.0));
         let still = Motion::ZERO;
         for frame in 1..=3 {
             t.update(still, &[], 3, |_| true);
@@ -138,13 +160,13 @@ mod tests {
     #[test]
     fn matched_tracks_take_their_observation_and_unmatched_ones_move() {
         let mut t = Tracks::<4>::default();
-        t.spawn(at(8.0));
-        t.spawn(at(10.0));
+        t.spawn(seen(8.0));
+        t.spawn(seen(10.0));
         let m = Motion {
             heading_change_rad: 0.0,
             distance_m: 1.0,
         };
-        t.update(m, &[Some(at(7.1)), None], 3, |_| true);
+        t.update(m, &[Some(seen(7.1)), None], 3, |_| true);
         let s = t.as_slice();
         assert_eq!((s[0].ground, s[0].misses), (at(7.1), 0));
         assert_eq!((s[1].ground, s[1].misses), (at(9.0), 1));
@@ -156,14 +178,14 @@ mod tests {
     #[test]
     fn a_full_pool_evicts_the_most_missed_and_never_panics() {
         let mut t = Tracks::<2>::default();
-        assert_eq!(t.spawn(at(1.0)), Spawn::Added);
-        assert_eq!(t.spawn(at(2.0)), Spawn::Added);
-        assert_eq!(t.spawn(at(3.0)), Spawn::Refused);
-        t.update(Motion::ZERO, &[Some(at(1.0))], 5, |_| true);
-        assert_eq!(t.spawn(at(4.0)), Spawn::Evicted);
+        assert_eq!(t.spawn(seen(1.0)), Spawn::Added);
+        assert_eq!(t.spawn(seen(2.0)), Spawn::Added);
+        assert_eq!(t.spawn(seen(3.0)), Spawn::Refused);
+        t.update(Motion::ZERO, &[Some(seen(1.0))], 5, |_| true);
+        assert_eq!(t.spawn(seen(4.0)), Spawn::Evicted);
         assert_eq!(t.as_slice()[1].ground, at(4.0));
         for _ in 0..100 {
-            t.spawn(at(5.0));
+            t.spawn(seen(5.0));
         }
         assert_eq!(t.len(), 2);
     }
