@@ -63,6 +63,9 @@ pub struct PitchVoteSettings {
     /// Number of pitch hypotheses, odd so that level is one of them (21: 0.1 deg steps); at
     /// most [`MAX_PITCH_HYPOTHESES`].
     pub pitch_steps: u8,
+    /// Largest change of body pitch between two frames, in pitch steps (5: 0.5 deg, the
+    /// suspension's +-0.5 deg at 1.5 Hz changes by up to 0.47 deg in 0.1 s).
+    pub max_pitch_change_steps: u8,
     /// Half width of the heading-change window around the previous motion, radians per frame
     /// (1 deg): wide enough to see real changes, unlike the paper's 0.1 deg patch.
     pub heading_half_rad: f32,
@@ -84,6 +87,7 @@ impl Default for PitchVoteSettings {
         Self {
             pitch_range_rad: 1.0 * DEG,
             pitch_steps: 21,
+            max_pitch_change_steps: 5,
             heading_half_rad: 1.0 * DEG,
             distance_half_m: 0.3,
             lateral_tolerance_m: 0.04,

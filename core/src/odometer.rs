@@ -5,7 +5,7 @@ use crate::frame::Frame;
 use crate::harris::{self, Corners, HarrisScratch};
 use crate::motion::{Motion, Pose2};
 use crate::paper::PaperScratch;
-use crate::pitch_vote::PitchVoteScratch;
+use crate::pitch_vote::{ABSOLUTE_GAIN, PitchVoteScratch};
 use crate::tracks::{Observation, Spawn, Tracks};
 use crate::vote::MotionWindow;
 use core::fmt;
@@ -349,12 +349,21 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
         let along = 2.0 * window.distance_step_m(GRID) + pv.lateral_tolerance_m;
         let n = self.tracks.len();
         let matched = self.pitch_vote.match_tracks(
+            &self.config,
             self.tracks.as_slice(),
             outcome.motion,
             pv.lateral_tolerance_m,
             along,
             &mut self.observed[..n],
         );
+        // Feed the absolute pitch: positive error means too far nose down, a higher index.
+        let steps = pv.pitch_steps.saturating_sub(1).max(1);
+        let step_rad = 2.0 * pv.pitch_range_rad / f32::from(steps);
+        if let Some(e) = self.pitch_vote.common_pitch_error_rad(cfg.mount.height_m)
+            && step_rad > 0.0
+        {
+            self.state.pitch_integrator += ABSOLUTE_GAIN * e / step_rad;
+        }
         Voted {
             motion: Some(outcome.motion),
             matched,

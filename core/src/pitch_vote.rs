@@ -13,21 +13,22 @@
 //!    `distance_half_m`) per frame, scaled to the frame interval; with no previous motion, heading
 //!    +-`startup_heading_half_rad` and distance 0 to `startup_distance_max_m`. After a fallback
 //!    frame the window doubles (up to the start-up window) until a vote succeeds.
-//! 2. **Hypotheses.** For each of `pitch_steps` body pitches over +-`pitch_range_rad`, every
+//! 2. **Hypotheses.** For body pitches over +-`pitch_range_rad` in `pitch_steps` steps, every
 //!    corner is backprojected exactly (a point, not a quadrilateral) through that pitch's
 //!    homography, computed once per configuration. The search runs in two passes:
 //!    - *relative*: the tracks stay where the previous frame put them, under its pitch estimate,
 //!      and every pitch of the current frame is tried;
-//!    - *absolute*: the change of pitch found is kept, and both frames' pitches are shifted
-//!      together by up to `ABSOLUTE_REACH` steps, the tracks seen in the previous frame being
-//!      backprojected again from their pixels. A common pitch error scales the apparent distance
-//!      in proportion to each feature's range (by `2 x delta / h`), so only the true pitch makes
-//!      features near and far agree: without this pass the pitch drifts to the end of its range
-//!      and the distance with it (measured: -1 deg and 14% short after 150 frames). That signal
-//!      is weak in one frame (the best shift jumps by +-3 steps from frame to frame), so the best
-//!      shift feeds an integrator of gain `ABSOLUTE_GAIN`, which moves both pitches one step
-//!      whenever it reaches a whole step: the absolute pitch follows the average of about ten
-//!      frames while the relative pass follows the suspension frame by frame.
+//!    - *absolute*: the relative pass only sees changes of pitch; an error common to both frames
+//!      goes unseen by it and the pitch drifts, the distance with it (measured: -1 deg and 14%
+//!      short after 150 frames). But a common error `e` (radians, too far nose down) moves a
+//!      point at range `x` nearer by about `(x^2 + h^2) e / h`, so a matched pair at mean range
+//!      `x` shows the distance `v (1 - 2 x e / h)`: the slope of the matched pairs' distances
+//!      against their range measures `e` ([`PitchVoteScratch::common_pitch_error_rad`]). Each
+//!      frame's measurement feeds an integrator (gain `ABSOLUTE_GAIN`, in pitch steps); its whole
+//!      steps move both frames' pitches and the track positions are backprojected again from
+//!      their pixels. The relative pass only looks `max_pitch_change_steps` each way, so that it
+//!      cannot run away from the absolute correction (seen in a tight turn: 0.2 deg a frame). Comparing vote peaks over common shifts instead
+//!      was tried and measured too noisy (the best shift jumped by +-0.3 deg frame to frame).
 //! 3. **Pairs.** Each track `p` (a ground point in the previous vehicle frame) and each
 //!    observation `c` (in the current one) that the window can join form a pair. For a heading
 //!    change alpha the arc model says `p - R(alpha) c` is the chord, of direction alpha/2: its
@@ -56,10 +57,8 @@ use heapless::Vec;
 const MAX_CELLS_PER_TRACK: usize = 256;
 /// Largest weight of a vote, for a pair that fits exactly (1 at the tolerance's edge).
 const VOTE_WEIGHT: u16 = 8;
-/// Steps each way the absolute pass shifts both frames' pitch.
-const ABSOLUTE_REACH: usize = 3;
-/// Share of the absolute pass's best shift that goes into its integrator each frame.
-const ABSOLUTE_GAIN: f32 = 0.1;
+/// Share of each frame's measured common pitch error (in steps) that goes into the integrator.
+pub const ABSOLUTE_GAIN: f32 = 0.2;
 
 /// Per heading bin: cos alpha, sin alpha, cos alpha/2, sin alpha/2, 1 / sinc(alpha/2).
 type Trig = [f32; 5];
@@ -101,6 +100,8 @@ pub struct PitchVoteScratch<const N: usize, const F: usize, const GRID: usize> {
     prev: [GroundPoint; N],
     /// Which observations a track took in the last matching.
     used: [[bool; F]; 2],
+    /// Sums over the last matching's pairs of (range, distance): n, x, v, xx, xv.
+    regression: [f32; 5],
     /// One track's bins as (heading bin * GRID + distance bin, weight).
     cells: Vec<(u16, u16), MAX_CELLS_PER_TRACK>,
     trig: [Trig; GRID],
@@ -113,6 +114,7 @@ impl<const N: usize, const F: usize, const GRID: usize> Default for PitchVoteScr
             obs: [Vec::new(), Vec::new()],
             prev: [GroundPoint::default(); N],
             used: [[false; F]; 2],
+            regression: [0.0; 5],
             cells: Vec::new(),
             trig: [[0.0; 5]; GRID],
         }
@@ -225,12 +227,6 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
     }
 
     /// Votes with the tracks placed by `prev` and the corners seen through `cur`; the peak.
-    ///
-    /// A pitch hypothesis scales every distance on the road by about `scale` (its range to a
-    /// reference point over the previous frame's); the distance window and the tolerance scale
-    /// with it. Fixed metric bins would otherwise favour pitches that shrink the scene: shrunk
-    /// noise fits more votes into the same bins (measured: the pitch ran to -1 deg).
-    #[allow(clippy::too_many_arguments)]
     fn try_pitches(
         &mut self,
         tracks: &[Track],
@@ -239,22 +235,17 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
         cur: &Homography,
         window: &MotionWindow,
         tolerance_m: f32,
-        scale: f32,
-    ) -> Option<(Peak, MotionWindow)> {
-        let window = MotionWindow {
-            distance_lo_m: window.distance_lo_m * scale,
-            distance_hi_m: window.distance_hi_m * scale,
-            ..*window
-        };
+    ) -> Option<Peak> {
         self.place_tracks(tracks, prev);
         self.observe(corners, cur);
-        self.vote(tracks.len(), &window, tolerance_m * scale);
-        self.grid.peak().map(|p| (p, window))
+        self.vote(tracks.len(), window, tolerance_m);
+        self.grid.peak()
     }
 
     /// Runs the vote: the best pitch hypotheses and the motion they support. `None` when no pair
-    /// voted. `previous` is the pitch index the previous frame settled on; `integrator` carries
-    /// the absolute pass's integrator (in steps) from frame to frame.
+    /// voted. `previous` is the pitch index the previous frame settled on; `integrator` is the
+    /// absolute-pitch integrator (in steps): where it holds a whole step, both frames' pitches
+    /// move by it.
     pub fn estimate(
         &mut self,
         cfg: &ValidConfig,
@@ -269,89 +260,36 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
         }
         let tolerance = cfg.config().pitch_vote.lateral_tolerance_m;
         let fan = cfg.pitch_fan();
-        // Range along the look direction of a reference point (three quarters of the way to the
-        // far cutoff) under each pitch, relative to the previous frame's pitch.
-        let reference = cfg.window_point(0.75 * cfg.config().window.far_m, 0.0);
-        let pixel = cfg.projection().nominal.project(reference)?;
-        let range = |k: usize| {
-            fan.get(k)
-                .and_then(|h| h.backproject(pixel))
-                .map(|g| cfg.window_coords(g).0)
-        };
-        let base = range(previous)?;
-        let scale = |k: usize| range(k).map_or(1.0, |r| r / base);
-        // Better score wins; on a tie, the smaller change from `prefer`.
-        let better = |score: u32, k: usize, best: Option<(u32, usize)>, prefer: usize| match best {
-            None => true,
-            Some((s, at)) => score > s || (score == s && k.abs_diff(prefer) < at.abs_diff(prefer)),
-        };
-        // Relative pass: the previous frame as it was estimated, every pitch for this one.
+        // Relative pass: the previous frame as it was estimated, every pitch for this one. Better
+        // score wins; on a tie, the smaller change.
         let mut best: Option<(u32, usize)> = None;
-        for (k, h) in fan.iter().enumerate() {
-            let tried = self.try_pitches(tracks, corners, None, h, window, tolerance, 1.0);
-            if let Some((peak, _)) = tried
-                && better(peak.score, k, best, previous)
-            {
+        let reach = usize::from(cfg.config().pitch_vote.max_pitch_change_steps);
+        let near = previous.saturating_sub(reach)..=previous + reach;
+        for (k, h) in fan.iter().enumerate().filter(|(k, _)| near.contains(k)) {
+            let Some(peak) = self.try_pitches(tracks, corners, None, h, window, tolerance) else {
+                continue;
+            };
+            let better = best.is_none_or(|(s, at)| {
+                peak.score > s || (peak.score == s && k.abs_diff(previous) < at.abs_diff(previous))
+            });
+            if better {
                 best = Some((peak.score, k));
             }
         }
-        let (score, cur) = best?;
-        // Absolute pass: both frames' pitches shifted together.
-        let mut shift: (u32, isize) = (score, 0);
-        let reach = ABSOLUTE_REACH as isize;
-        for d in (-reach..=reach).filter(|&d| d != 0) {
-            let (Some(p), Some(c)) = (previous.checked_add_signed(d), cur.checked_add_signed(d))
-            else {
-                continue;
-            };
-            let (Some(hp), Some(hc)) = (fan.get(p), fan.get(c)) else {
-                continue;
-            };
-            // Both frames move together: distances scale as the current pitch's over the
-            // shifted previous one's.
-            let s = scale(c) / scale(p);
-            let tried = self.try_pitches(tracks, corners, Some(hp), hc, window, tolerance, s);
-            if let Some((peak, _)) = tried
-                && (peak.score > shift.0 || (peak.score == shift.0 && d.abs() < shift.1.abs()))
-            {
-                shift = (peak.score, d);
-            }
-        }
-        let level = fan.len() / 2;
-        *integrator += ABSOLUTE_GAIN * shift.1 as f32 - 0.05 * (cur as f32 - level as f32);
-        let step: isize = if *integrator >= 1.0 {
-            1
-        } else if *integrator <= -1.0 {
-            -1
-        } else {
-            0
-        };
-        let last = fan.len() - 1;
-        let (p, c) = match (
-            previous.checked_add_signed(step).filter(|&p| p <= last),
-            cur.checked_add_signed(step).filter(|&c| c <= last),
-        ) {
-            (Some(p), Some(c)) => {
-                *integrator -= step as f32;
-                (p, c)
-            }
-            // At the end of the range: hold, and let the integrator not wind up past a step.
-            _ => {
-                *integrator = integrator.clamp(-1.0, 1.0);
-                (previous, cur)
-            }
-        };
+        let (_, cur) = best?;
+        // Absolute correction: the integrator's whole steps move both frames, as far as the
+        // range allows; what the range cuts off is dropped, so the integrator cannot wind up.
+        let last = fan.len() as isize - 1;
+        let (lo, hi) = (previous.min(cur) as isize, previous.max(cur) as isize);
+        let step = (libm::truncf(*integrator) as isize).clamp(-lo, last - hi);
+        *integrator = (*integrator - step as f32).clamp(-1.0, 1.0);
+        let (p, c) = (
+            previous.saturating_add_signed(step),
+            cur.saturating_add_signed(step),
+        );
         let prev_h = (p != previous).then(|| fan[p]);
-        let s = scale(c) / scale(p);
-        let (peak, window) = self.try_pitches(
-            tracks,
-            corners,
-            prev_h.as_ref(),
-            &fan[c],
-            window,
-            tolerance,
-            s,
-        )?;
+        let peak =
+            self.try_pitches(tracks, corners, prev_h.as_ref(), &fan[c], window, tolerance)?;
         Some(VoteOutcome {
             motion: window.motion_at(peak.heading_bin, peak.distance_bin, GRID),
             pitch_index: c,
@@ -364,6 +302,7 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
     /// `motion`: `observed[i]` becomes track `i`'s observation, if any. Returns the matches.
     pub fn match_tracks(
         &mut self,
+        cfg: &ValidConfig,
         tracks: &[Track],
         motion: Motion,
         tolerance_m: f32,
@@ -372,6 +311,7 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
     ) -> usize {
         let t = trig(motion.heading_change_rad);
         self.used = [[false; F]; 2];
+        self.regression = [0.0; 5];
         let mut matched = 0;
         for (&p, slot) in self.prev.iter().take(tracks.len()).zip(observed.iter_mut()) {
             *slot = None;
@@ -393,8 +333,13 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
             }
             if let Some((_, side, k)) = best {
                 self.used[side][k] = true;
-                *slot = Some(self.obs[side][k]);
+                let o = self.obs[side][k];
+                *slot = Some(o);
                 matched += 1;
+                let (_, v) = residual(p, o.ground, &t);
+                let x = 0.5 * (cfg.window_coords(p).0 + cfg.window_coords(o.ground).0);
+                let r = &mut self.regression;
+                *r = [r[0] + 1.0, r[1] + x, r[2] + v, r[3] + x * x, r[4] + x * v];
             }
         }
         matched
@@ -407,6 +352,23 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
             .iter()
             .zip(&self.used)
             .flat_map(|(obs, used)| obs.iter().zip(used).filter(|(_, u)| !**u).map(|(c, _)| *c))
+    }
+
+    /// The common pitch error of both frames the last matching's pairs show, radians, positive
+    /// when the hypotheses are too far nose down (see the module docs). `None` with fewer than
+    /// eight pairs, ranges spread over less than a metre, or under 0.2 m of travel.
+    pub fn common_pitch_error_rad(&self, height_m: f32) -> Option<f32> {
+        let [n, sx, sv, sxx, sxv] = self.regression;
+        if n < 8.0 {
+            return None;
+        }
+        let var = sxx / n - (sx / n) * (sx / n);
+        let v = sv / n;
+        if var < 1.0 || v.abs() < 0.2 {
+            return None;
+        }
+        let slope = (sxv / n - (sx / n) * v) / var;
+        Some(-slope * height_m / (2.0 * v))
     }
 
     /// Marks every observation untaken (nothing matched this frame).
@@ -511,6 +473,37 @@ mod tests {
                 "{m:?}"
             );
         }
+    }
+
+    #[test]
+    fn a_common_pitch_error_shows_in_distance_against_range() {
+        let cfg = kitti_config().validate().unwrap();
+        let level = cfg.pitch_fan().len() / 2;
+        let truth = Motion {
+            heading_change_rad: 0.002,
+            distance_m: 0.9,
+        };
+        let (mut tracks, corners) = frame_pair(&cfg, &scene(60), truth, level);
+        // Both frames read 0.3 deg too far nose down.
+        let low = cfg.pitch_fan()[level - 3];
+        for t in tracks.iter_mut() {
+            t.ground = low.backproject(t.pixel.unwrap()).unwrap();
+        }
+        let mut scratch = PitchVoteScratch::<64, 64, 64>::default();
+        let window = MotionWindow::around(truth, 1f32.to_radians(), 0.3);
+        let mut integrator = 0.0;
+        // Fix the hypotheses by voting with the low pitch as the previous frame's.
+        let out = scratch
+            .estimate(&cfg, &tracks, &corners, &window, level - 3, &mut integrator)
+            .unwrap();
+        assert_eq!(out.pitch_index, level - 3);
+        let mut observed = [None; 64];
+        let n = tracks.len();
+        let matched =
+            scratch.match_tracks(&cfg, &tracks, out.motion, 0.04, 0.05, &mut observed[..n]);
+        assert!(matched > 40, "{matched}");
+        let e = scratch.common_pitch_error_rad(1.65).unwrap().to_degrees();
+        assert!((e - 0.3).abs() < 0.1, "measured {e} deg");
     }
 
     #[test]

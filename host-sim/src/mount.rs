@@ -34,6 +34,7 @@
 //! min_inlier_ratio = 0.125            # below: keep the previous motion (paper: 1/8)
 //! pitch_range_deg = 1.0               # default method: pitch hypotheses over +-1 deg
 //! pitch_steps = 21                    #   in 0.1 deg steps
+//! max_pitch_change_steps = 5          #   at most 0.5 deg between frames
 //! heading_window_deg = 1.0            #   heading change window, per frame
 //! distance_window_m = 0.3             #   distance window, per frame
 //! lateral_tolerance_m = 0.04          #   largest residual that votes
@@ -141,6 +142,8 @@ pub struct OdometerSection {
     pub pitch_range_deg: f32,
     /// Default method: number of pitch hypotheses (odd).
     pub pitch_steps: u8,
+    /// Default method: largest pitch change between frames, in pitch steps.
+    pub max_pitch_change_steps: u8,
     /// Default method: heading window half width per frame, degrees.
     pub heading_window_deg: f32,
     /// Default method: distance window half width per frame, metres.
@@ -166,6 +169,7 @@ impl Default for OdometerSection {
             min_inlier_ratio: 0.125,
             pitch_range_deg: 1.0,
             pitch_steps: 21,
+            max_pitch_change_steps: 5,
             heading_window_deg: 1.0,
             distance_window_m: 0.3,
             lateral_tolerance_m: 0.04,
@@ -240,6 +244,7 @@ impl MountFile {
             pitch_vote: PitchVoteSettings {
                 pitch_range_rad: o.pitch_range_deg.to_radians(),
                 pitch_steps: o.pitch_steps,
+                max_pitch_change_steps: o.max_pitch_change_steps,
                 heading_half_rad: o.heading_window_deg.to_radians(),
                 distance_half_m: o.distance_window_m,
                 lateral_tolerance_m: o.lateral_tolerance_m,
