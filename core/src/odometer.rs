@@ -435,3 +435,66 @@ struct Voted {
     peak: u32,
     pitch_rad: f32,
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::tests::kitti_config;
+    use crate::frame::SliceFrame;
+    use std::vec;
+
+    /// The RAM budget of the default odometer, bytes (BRIEF: start at 64 KiB).
+    const BUDGET_BYTES: usize = 64 * 1024;
+
+    #[test]
+    fn default_odometer_fits_its_ram_budget() {
+        let size = size_of::<Odometer>();
+        std::println!("size_of::<Odometer>() = {size} bytes");
+        assert!(size <= BUDGET_BYTES, "{size} bytes");
+    }
+
+    #[test]
+    fn refused_frames_leave_the_state_untouched() {
+        let cfg = kitti_config().validate().unwrap();
+        let mut odo: Odometer = Odometer::new(cfg).unwrap();
+        let img = vec![100u8; 1241 * 376];
+        let frame = SliceFrame::new(&img, 1241, 376, 1241).unwrap();
+        let first = odo.process(&frame, 1_000).unwrap();
+        assert!(first.quality.startup);
+        let before = (odo.state, odo.tracks.len());
+        let small = SliceFrame::new(&img, 640, 376, 640).unwrap();
+        assert_eq!(
+            odo.process(&small, 2_000),
+            Err(FrameError::WrongSize {
+                expected: (1241, 376),
+                got: (640, 376)
+            })
+        );
+        assert_eq!(
+            odo.process(&frame, 1_000),
+            Err(FrameError::TimestampNotIncreasing {
+                previous_us: 1_000,
+                got_us: 1_000
+            })
+        );
+        assert_eq!((odo.state, odo.tracks.len()), before);
+        // A featureless frame: nothing to vote with, so the motion is kept and flagged.
+        let e = odo.process(&frame, 101_000).unwrap();
+        assert!(e.quality.fallback && e.quality.features_detected == 0);
+        odo.reset();
+        assert!(odo.process(&frame, 50).unwrap().quality.startup);
+    }
+
+    #[test]
+    fn too_many_features_for_the_capacity_is_refused() {
+        let mut c = kitti_config();
+        c.features_per_side = 40;
+        let cfg = c.validate().unwrap();
+        assert_eq!(
+            Odometer::<128, 32, 64>::new(cfg).unwrap_err(),
+            crate::ConfigError::ExceedsCapacity {
+                field: "features_per_side"
+            }
+        );
+    }
+}

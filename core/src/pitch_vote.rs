@@ -476,6 +476,25 @@ mod tests {
     }
 
     #[test]
+    fn a_known_change_of_pitch_is_recovered() {
+        let cfg = kitti_config().validate().unwrap();
+        let level = cfg.pitch_fan().len() / 2;
+        let truth = Motion {
+            heading_change_rad: -0.004,
+            distance_m: 1.0,
+        };
+        // The body pitches 0.3 deg nose down between the frames.
+        let (tracks, corners) = frame_pair(&cfg, &scene(50), truth, level - 3);
+        let window = MotionWindow::around(truth, 1f32.to_radians(), 0.3);
+        let mut scratch = PitchVoteScratch::<64, 64, 64>::default();
+        let out = scratch
+            .estimate(&cfg, &tracks, &corners, &window, level, &mut 0.0)
+            .unwrap();
+        assert_eq!(out.pitch_index, level - 3);
+        assert!((out.motion.distance_m - 1.0).abs() < 2e-3, "{out:?}");
+    }
+
+    #[test]
     fn a_common_pitch_error_shows_in_distance_against_range() {
         let cfg = kitti_config().validate().unwrap();
         let level = cfg.pitch_fan().len() / 2;

@@ -8,7 +8,7 @@ use roadvo_sim::kitti::Sequence;
 use roadvo_sim::kitti::{Pose, read_poses, write_poses};
 use roadvo_sim::mount::MethodName;
 use roadvo_sim::plot::{Track, plot_trajectories};
-use roadvo_sim::run::{RunOutput, mount_for, run_sequence};
+use roadvo_sim::run::{RunOutput, bench_sequence, mount_for, run_sequence};
 use roadvo_sim::scenario::{BUILT_IN, Scenario};
 use roadvo_sim::simulate::{poses_path, sequence_dir, simulate};
 use std::path::{Path, PathBuf};
@@ -31,6 +31,9 @@ enum Command {
         /// A built-in scenario (s-course, kitti-like) or a scenario TOML file.
         #[arg(long, default_value = "s-course")]
         scenario: String,
+        /// Partial scenarios merged over it, in order: built-in (suspension, traffic) or files.
+        #[arg(long)]
+        overlay: Vec<String>,
         /// Output folder: OUT/sequences/00/..., OUT/poses/00.txt.
         #[arg(long)]
         out: Option<PathBuf>,
@@ -77,6 +80,23 @@ enum Command {
         #[arg(long)]
         plot: Option<PathBuf>,
     },
+    /// Time the odometry alone on a sequence: frames preloaded, one thread, both methods.
+    Bench {
+        /// The sequence folder.
+        seq_dir: PathBuf,
+        /// Mount file (default: SEQ_DIR/mount.toml).
+        #[arg(long)]
+        mount: Option<PathBuf>,
+        /// Only this method (default: both).
+        #[arg(long, value_enum)]
+        method: Option<MethodName>,
+        /// Frames from the start of the sequence.
+        #[arg(long, default_value_t = 300)]
+        frames: usize,
+        /// Times to run the frames.
+        #[arg(long, default_value_t = 3)]
+        repeats: usize,
+    },
     /// Render the paper's s-course, run both methods, evaluate, and plot: the default demo.
     Demo {
         /// Folder to render into (default: a temporary folder, removed afterwards).
@@ -86,15 +106,6 @@ enum Command {
         #[arg(long, default_value_t = 1)]
         seed: u64,
     },
-}
-
-fn load_scenario(name: &str) -> Result<Scenario> {
-    let as_path = Path::new(name);
-    if BUILT_IN.contains(&name) || !as_path.exists() {
-        Scenario::built_in(name)
-    } else {
-        Scenario::read(as_path)
-    }
 }
 
 fn render(scenario: &Scenario, out: &Path, seed: u64, frames: Option<usize>) -> Result<()> {
@@ -134,15 +145,18 @@ fn main() -> Result<()> {
     match Cli::parse().command {
         Command::Simulate {
             scenario,
+            overlay,
             out,
             seed,
             frames,
             print_scenario,
         } => {
-            let sc = load_scenario(&scenario)?;
+            let sc = Scenario::load(&scenario, &overlay)?;
             if print_scenario {
                 match Scenario::built_in_text(&scenario) {
-                    Ok(text) if BUILT_IN.contains(&scenario.as_str()) => print!("{text}"),
+                    Ok(text) if overlay.is_empty() && BUILT_IN.contains(&scenario.as_str()) => {
+                        print!("{text}")
+                    }
                     _ => print!("{}", sc.to_toml()?),
                 }
                 return Ok(());
@@ -215,6 +229,37 @@ fn main() -> Result<()> {
                     .transpose()?;
                 plot_trajectories(&p, &seq_dir.display().to_string(), &tracks, report.as_ref())?;
                 println!("plot written to {}", p.display());
+            }
+            Ok(())
+        }
+        Command::Bench {
+            seq_dir,
+            mount,
+            method,
+            frames,
+            repeats,
+        } => {
+            let seq = Sequence::open(&seq_dir)?;
+            let mount = mount_for(&seq_dir, mount.as_deref())?;
+            let methods = match method {
+                Some(m) => vec![m],
+                None => vec![MethodName::Default, MethodName::Paper],
+            };
+            println!(
+                "{} frames of {}x{} from {}, {repeats} runs, one thread, frames preloaded",
+                frames.min(seq.frames),
+                seq.size.0,
+                seq.size.1,
+                seq_dir.display()
+            );
+            for m in methods {
+                let b = bench_sequence(&seq, &mount, Some(m), frames, repeats)?;
+                let (lo, mid, hi) = b.spread_ms();
+                println!(
+                    "{:>8}: {:.0} frames/s; per frame min {lo:.2} ms, median {mid:.2} ms, max {hi:.2} ms",
+                    format!("{m:?}").to_lowercase(),
+                    b.frames_per_s()
+                );
             }
             Ok(())
         }

@@ -56,6 +56,72 @@ impl RunOutput {
     }
 }
 
+/// Timings of [`bench_sequence`].
+pub struct BenchOutput {
+    /// Time of each call to `process()`, all repeats in order.
+    pub per_frame: Vec<Duration>,
+}
+
+impl BenchOutput {
+    /// Frames per second over all calls.
+    pub fn frames_per_s(&self) -> f64 {
+        let total: Duration = self.per_frame.iter().sum();
+        self.per_frame.len() as f64 / total.as_secs_f64().max(1e-9)
+    }
+
+    /// (min, median, max) time of one call, milliseconds.
+    pub fn spread_ms(&self) -> (f64, f64, f64) {
+        let mut ms: Vec<f64> = self
+            .per_frame
+            .iter()
+            .map(|d| 1e3 * d.as_secs_f64())
+            .collect();
+        ms.sort_by(f64::total_cmp);
+        let pick = |q: f64| {
+            ms.get(((ms.len() - 1) as f64 * q) as usize)
+                .copied()
+                .unwrap_or(0.0)
+        };
+        (pick(0.0), pick(0.5), pick(1.0))
+    }
+}
+
+/// Times `process()` alone: every frame decoded first, then the whole sequence run `repeats`
+/// times on one thread, a fresh odometer each time.
+pub fn bench_sequence(
+    seq: &Sequence,
+    mount: &MountFile,
+    method: Option<MethodName>,
+    frames: usize,
+    repeats: usize,
+) -> Result<BenchOutput> {
+    let mut mount = mount.clone();
+    if let Some(m) = method {
+        mount.odometer.method = m;
+    }
+    let config = mount
+        .to_config()
+        .validate()
+        .map_err(|e| anyhow!("mount file: {e}"))?;
+    let n = frames.min(seq.frames);
+    let images = (0..n).map(|i| seq.load(i)).collect::<Result<Vec<_>, _>>()?;
+    let (w, h) = seq.size;
+    let mut per_frame = Vec::with_capacity(n * repeats);
+    for _ in 0..repeats {
+        let mut odo: Box<Odometer> = Box::new(Odometer::new(config).map_err(|e| anyhow!("{e}"))?);
+        for (i, img) in images.iter().enumerate() {
+            let frame = SliceFrame::new(img.as_raw(), w as u16, h as u16, w as usize)
+                .context("frame buffer")?;
+            let t = (seq.times_s[i] * 1e6).round() as u64;
+            let start = Instant::now();
+            let est = odo.process(&frame, t);
+            per_frame.push(start.elapsed());
+            std::hint::black_box(est.with_context(|| format!("frame {i:06}"))?);
+        }
+    }
+    Ok(BenchOutput { per_frame })
+}
+
 /// The mount file of a sequence: `--mount` if given, else `SEQ_DIR/mount.toml`.
 pub fn mount_for(seq_dir: &Path, mount: Option<&Path>) -> Result<MountFile> {
     let path = mount.map_or_else(|| seq_dir.join("mount.toml"), Path::to_owned);

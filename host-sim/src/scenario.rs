@@ -241,6 +241,27 @@ pub struct Scenario {
 /// The built-in scenarios' names.
 pub const BUILT_IN: [&str; 2] = ["s-course", "kitti-like"];
 
+/// The built-in overlays' names: partial scenarios merged over a scenario (`--overlay`).
+pub const BUILT_IN_OVERLAYS: [&str; 2] = ["suspension", "traffic"];
+
+/// Merges `overlay` into `base`: tables merge key by key, arrays of tables (`[[vehicle]]`)
+/// are appended to, anything else is replaced.
+fn merge(base: &mut toml::Table, overlay: toml::Table) {
+    for (key, value) in overlay {
+        match (base.get_mut(&key), value) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(o)) => merge(b, o),
+            (Some(toml::Value::Array(b)), toml::Value::Array(o))
+                if o.iter().all(toml::Value::is_table) && key != "segment" =>
+            {
+                b.extend(o)
+            }
+            (_, v) => {
+                base.insert(key, v);
+            }
+        }
+    }
+}
+
 impl Scenario {
     /// The TOML text of a built-in scenario, with its comments.
     pub fn built_in_text(name: &str) -> Result<&'static str> {
@@ -259,11 +280,39 @@ impl Scenario {
         Self::parse(Self::built_in_text(name)?).with_context(|| format!("built-in scenario {name}"))
     }
 
-    /// Reads a scenario file.
-    pub fn read(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path)
-            .with_context(|| format!("cannot read scenario {}", path.display()))?;
-        Self::parse(&text).with_context(|| format!("in scenario {}", path.display()))
+    /// A scenario (built-in name or file) with overlays (built-in names or files) merged over
+    /// it in order.
+    pub fn load(name: &str, overlays: &[String]) -> Result<Self> {
+        let text = |name: &str, builtin: &dyn Fn(&str) -> Option<&'static str>| -> Result<String> {
+            let path = Path::new(name);
+            match builtin(name) {
+                Some(t) if !path.exists() => Ok(t.to_string()),
+                _ => std::fs::read_to_string(path).with_context(|| {
+                    format!(
+                        "cannot read {} (and no built-in of that name)",
+                        path.display()
+                    )
+                }),
+            }
+        };
+        let base_text = text(name, &|n| Self::built_in_text(n).ok())?;
+        let mut table: toml::Table =
+            toml::from_str(&base_text).with_context(|| format!("in scenario {name}"))?;
+        for o in overlays {
+            let overlay_text = text(o, &|n| match n {
+                "suspension" => Some(include_str!("../scenarios/suspension.toml")),
+                "traffic" => Some(include_str!("../scenarios/traffic.toml")),
+                _ => None,
+            })?;
+            let overlay: toml::Table =
+                toml::from_str(&overlay_text).with_context(|| format!("in overlay {o}"))?;
+            merge(&mut table, overlay);
+        }
+        let s: Scenario = table
+            .try_into()
+            .with_context(|| format!("scenario {name} with overlays {overlays:?}"))?;
+        s.check()?;
+        Ok(s)
     }
 
     fn parse(text: &str) -> Result<Self> {
@@ -339,6 +388,18 @@ mod tests {
             assert_eq!(s, again, "{name}");
         }
         assert!(Scenario::built_in("nope").is_err());
+    }
+
+    #[test]
+    fn overlays_merge_tables_and_append_vehicles() {
+        let s = Scenario::load("kitti-like", &["suspension".into(), "traffic".into()]).unwrap();
+        assert_eq!(s.suspension.pitch_amplitude_deg, 0.5);
+        assert!(!s.vehicles.is_empty());
+        let plain = Scenario::built_in("kitti-like").unwrap();
+        assert_eq!(s.segments, plain.segments);
+        let twice = Scenario::load("kitti-like", &["traffic".into(), "traffic".into()]).unwrap();
+        assert_eq!(twice.vehicles.len(), 2 * s.vehicles.len());
+        assert!(Scenario::load("kitti-like", &["nope".into()]).is_err());
     }
 
     #[test]
