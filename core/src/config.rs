@@ -332,6 +332,38 @@ impl ValidConfig {
 }
 
 impl Config {
+    /// A configuration for a camera and its mount, every other setting at its documented
+    /// default: the paper's values (attitude bounds 1 and 2 deg, dynamics 10 deg/s^2 and
+    /// 1.5 m/s^2, the KITTI window 12 m by +-3 m, 32 corners a side, 5 misses, 1/8 inliers) and
+    /// BRIEF §7's for the default method's vote.
+    pub fn with_defaults(image: ImageSize, intrinsics: Intrinsics, mount: Mount) -> Self {
+        const DEG: f32 = core::f32::consts::PI / 180.0;
+        Self {
+            image,
+            intrinsics,
+            mount,
+            attitude_bounds: Attitude {
+                pitch_rad: 1.0 * DEG,
+                roll_rad: 2.0 * DEG,
+            },
+            dynamics: Dynamics {
+                max_heading_accel_rad_s2: 10.0 * DEG,
+                max_longitudinal_accel_m_s2: 1.5,
+            },
+            window: GroundWindow {
+                near_m: 0.0,
+                far_m: 12.0,
+                half_width_m: 3.0,
+            },
+            features_per_side: 32,
+            track_max_misses: 5,
+            corner_threshold: 2000,
+            method: Method::PitchVote,
+            pitch_vote: PitchVoteSettings::default(),
+            min_inlier_ratio: 0.125,
+        }
+    }
+
     /// Checks every setting and derives the homographies and the image region of interest.
     pub fn validate(self) -> Result<ValidConfig, ConfigError> {
         self.check_finite()?;
@@ -616,18 +648,18 @@ pub(crate) mod tests {
 
     /// The KITTI camera 0 with the paper's KITTI settings.
     pub(crate) fn kitti_config() -> Config {
-        Config {
-            image: ImageSize {
+        Config::with_defaults(
+            ImageSize {
                 width_px: 1241,
                 height_px: 376,
             },
-            intrinsics: Intrinsics {
+            Intrinsics {
                 fx_px: 718.856,
                 fy_px: 718.856,
                 cx_px: 607.1928,
                 cy_px: 185.2157,
             },
-            mount: Mount {
+            Mount {
                 x_m: 1.0,
                 y_m: 0.0,
                 height_m: 1.65,
@@ -635,26 +667,7 @@ pub(crate) mod tests {
                 pitch_rad: 0.0,
                 roll_rad: 0.0,
             },
-            attitude_bounds: Attitude {
-                pitch_rad: 1.0 * DEG,
-                roll_rad: 2.0 * DEG,
-            },
-            dynamics: Dynamics {
-                max_heading_accel_rad_s2: 10.0 * DEG,
-                max_longitudinal_accel_m_s2: 1.5,
-            },
-            window: GroundWindow {
-                near_m: 0.0,
-                far_m: 12.0,
-                half_width_m: 3.0,
-            },
-            features_per_side: 32,
-            track_max_misses: 5,
-            corner_threshold: 2000,
-            method: Method::PitchVote,
-            pitch_vote: PitchVoteSettings::default(),
-            min_inlier_ratio: 0.125,
-        }
+        )
     }
 
     #[test]

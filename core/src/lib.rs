@@ -9,6 +9,24 @@
 //! computed through `libm`, never through a platform's float functions, so the host and a
 //! Cortex-M7 give bit-identical results.
 //!
+//! ## Use
+//! ```
+//! use roadvo::{Config, ImageSize, Intrinsics, Mount, Odometer, SliceFrame};
+//!
+//! // The camera and where it sits; every other setting keeps its documented default.
+//! let image = ImageSize { width_px: 1241, height_px: 376 };
+//! let intrinsics = Intrinsics { fx_px: 718.856, fy_px: 718.856, cx_px: 607.19, cy_px: 185.22 };
+//! let mount = Mount { x_m: 1.2, y_m: 0.0, height_m: 1.65, yaw_rad: 0.0, pitch_rad: 0.0, roll_rad: 0.0 };
+//! let config = Config::with_defaults(image, intrinsics, mount).validate()?;
+//! // All state in one value: 36 KiB with the default capacities.
+//! let mut odometer: Odometer = Odometer::new(config)?;
+//! let pixels = vec![0u8; 1241 * 376]; // a camera buffer
+//! let frame = SliceFrame::new(&pixels, 1241, 376, 1241).expect("buffer holds the frame");
+//! let estimate = odometer.process(&frame, 0).expect("first frame");
+//! assert!(estimate.quality.startup);
+//! # Ok::<(), roadvo::ConfigError>(())
+//! ```
+//!
 //! ## Modules, in the order the method uses them
 //! - [`config`]: the settings, validated once into a [`ValidConfig`].
 //! - [`projection`]: camera intrinsics, the mount, and the ground-plane homographies that turn a

@@ -6,26 +6,22 @@
 
 use cortex_m_rt::entry;
 use panic_halt as _;
-use roadvo::{
-    Attitude, Config, Dynamics, GroundWindow, ImageSize, Intrinsics, Method, Motion, Mount,
-    PitchVoteSettings, Pixel, Pose2,
-};
+use roadvo::{Config, ImageSize, Intrinsics, Motion, Mount, Pixel, Pose2};
 
-/// The KITTI camera 0 with the paper's settings.
+/// The KITTI camera 0 with the default settings.
 fn kitti_config() -> Config {
-    const DEG: f32 = core::f32::consts::PI / 180.0;
-    Config {
-        image: ImageSize {
+    Config::with_defaults(
+        ImageSize {
             width_px: 1241,
             height_px: 376,
         },
-        intrinsics: Intrinsics {
+        Intrinsics {
             fx_px: 718.856,
             fy_px: 718.856,
             cx_px: 607.1928,
             cy_px: 185.2157,
         },
-        mount: Mount {
+        Mount {
             x_m: 1.2,
             y_m: 0.0,
             height_m: 1.65,
@@ -33,26 +29,7 @@ fn kitti_config() -> Config {
             pitch_rad: 0.0,
             roll_rad: 0.0,
         },
-        attitude_bounds: Attitude {
-            pitch_rad: 1.0 * DEG,
-            roll_rad: 2.0 * DEG,
-        },
-        dynamics: Dynamics {
-            max_heading_accel_rad_s2: 10.0 * DEG,
-            max_longitudinal_accel_m_s2: 1.5,
-        },
-        window: GroundWindow {
-            near_m: 0.0,
-            far_m: 12.0,
-            half_width_m: 3.0,
-        },
-        features_per_side: 32,
-        track_max_misses: 5,
-        corner_threshold: 2000,
-        method: Method::PitchVote,
-        pitch_vote: PitchVoteSettings::default(),
-        min_inlier_ratio: 0.125,
-    }
+    )
 }
 
 #[entry]

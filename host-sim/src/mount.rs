@@ -153,26 +153,47 @@ pub struct OdometerSection {
 }
 
 impl Default for OdometerSection {
+    /// The core's defaults ([`Config::with_defaults`]), in the file's units.
     fn default() -> Self {
+        let zero = Intrinsics {
+            fx_px: 0.0,
+            fy_px: 0.0,
+            cx_px: 0.0,
+            cy_px: 0.0,
+        };
+        let level = Mount {
+            x_m: 0.0,
+            y_m: 0.0,
+            height_m: 0.0,
+            yaw_rad: 0.0,
+            pitch_rad: 0.0,
+            roll_rad: 0.0,
+        };
+        let size = ImageSize {
+            width_px: 0,
+            height_px: 0,
+        };
+        let c = Config::with_defaults(size, zero, level);
+        let pv = &c.pitch_vote;
         Self {
             method: MethodName::Default,
-            pitch_bound_deg: 1.0,
-            roll_bound_deg: 2.0,
-            max_heading_accel_deg_s2: 10.0,
-            max_longitudinal_accel_m_s2: 1.5,
-            window_near_m: 0.0,
-            window_far_m: 12.0,
-            window_half_width_m: 3.0,
-            features_per_side: 32,
-            track_max_misses: 5,
-            corner_threshold: 2000,
-            min_inlier_ratio: 0.125,
-            pitch_range_deg: 1.0,
-            pitch_steps: 21,
-            max_pitch_change_steps: 5,
-            heading_window_deg: 1.0,
-            distance_window_m: 0.3,
-            lateral_tolerance_m: 0.04,
+            pitch_bound_deg: c.attitude_bounds.pitch_rad.to_degrees(),
+            roll_bound_deg: c.attitude_bounds.roll_rad.to_degrees(),
+            max_heading_accel_deg_s2: c.dynamics.max_heading_accel_rad_s2.to_degrees(),
+            max_longitudinal_accel_m_s2: c.dynamics.max_longitudinal_accel_m_s2,
+            window_near_m: c.window.near_m,
+            window_far_m: c.window.far_m,
+            window_half_width_m: c.window.half_width_m,
+            features_per_side: c.features_per_side,
+            track_max_misses: c.track_max_misses,
+            corner_threshold: c.corner_threshold,
+            min_inlier_ratio: c.min_inlier_ratio,
+            pitch_range_deg: pv.pitch_range_rad.to_degrees(),
+            pitch_steps: pv.pitch_steps,
+            max_pitch_change_steps: pv.max_pitch_change_steps,
+            heading_window_deg: pv.heading_half_rad.to_degrees(),
+            distance_window_m: pv.distance_half_m,
+            lateral_tolerance_m: pv.lateral_tolerance_m,
         }
     }
 }
@@ -293,6 +314,12 @@ height_m = 1.65
         assert_eq!(f.odometer, OdometerSection::default());
         let c = f.to_config();
         assert_eq!(c.features_per_side, 32);
+        assert!((f.odometer.pitch_bound_deg - 1.0).abs() < 1e-5);
+        assert!((f.odometer.max_heading_accel_deg_s2 - 10.0).abs() < 1e-4);
+        // The file's defaults are the core's, through the unit conversions.
+        let core = Config::with_defaults(c.image, c.intrinsics, c.mount);
+        assert!((c.attitude_bounds.roll_rad - core.attitude_bounds.roll_rad).abs() < 1e-7);
+        assert_eq!(c.pitch_vote.pitch_steps, core.pitch_vote.pitch_steps);
         c.validate().unwrap();
     }
 
