@@ -128,8 +128,6 @@ pub struct VoteOutcome {
     pub motion: Motion,
     /// Index of the winning pitch hypothesis for this frame.
     pub pitch_index: usize,
-    /// Index of the pitch hypothesis the previous frame was re-read with.
-    pub previous_pitch_index: usize,
     /// The winning accumulator's peak.
     pub peak: Peak,
 }
@@ -293,7 +291,6 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
         Some(VoteOutcome {
             motion: window.motion_at(peak.heading_bin, peak.distance_bin, GRID),
             pitch_index: c,
-            previous_pitch_index: p,
             peak,
         })
     }

@@ -48,11 +48,6 @@ impl MotionWindow {
             .then(|| ((f * grid as f32) as usize).min(grid - 1))
     }
 
-    /// Heading bin width, radians.
-    pub fn heading_step_rad(&self, grid: usize) -> f32 {
-        (self.heading_hi_rad - self.heading_lo_rad) / grid as f32
-    }
-
     /// Distance bin width, metres.
     pub fn distance_step_m(&self, grid: usize) -> f32 {
         (self.distance_hi_m - self.distance_lo_m) / grid as f32
@@ -202,14 +197,6 @@ impl<const GRID: usize> VoteGrid<GRID> {
             distance_bin: sj as f32 / sum as f32,
         })
     }
-
-    /// Share of bins holding at least `fraction` of the highest count (1 for a flat vote).
-    pub fn flatness(&self, fraction: f32) -> f32 {
-        let max = self.cells.iter().flatten().copied().max().unwrap_or(0);
-        let floor = libm::ceilf(fraction * f32::from(max)) as u16;
-        let n = self.cells.iter().flatten().filter(|&&c| c >= floor).count();
-        n as f32 / (GRID * GRID) as f32
-    }
 }
 
 #[cfg(test)]
@@ -261,7 +248,6 @@ mod tests {
         let p = g.centre_above(0.7).unwrap();
         assert!((p.distance_bin - (10.0 + 21.0) / 17.0).abs() < 1e-6);
         assert!((p.heading_bin - 1.0).abs() < 1e-6);
-        assert!((g.flatness(0.7) - 2.0 / 16.0).abs() < 1e-6);
     }
 
     #[test]
