@@ -214,7 +214,7 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
         let prediction = self.predicted_motion(interval_us);
         let voted = match self.config.config().method {
             Method::PitchVote => self.vote_pitch(prediction),
-            Method::Paper => self.vote_paper(prediction),
+            Method::Paper => self.vote_paper(prediction, interval_us),
         };
         quality.tracks_matched = voted.matched as u16;
         quality.vote_peak = voted.peak;
@@ -373,13 +373,14 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
     }
 
     /// The paper's method (see [`crate::paper`]).
-    fn vote_paper(&mut self, prediction: Option<Motion>) -> Voted {
+    fn vote_paper(&mut self, prediction: Option<Motion>, interval_us: u64) -> Voted {
         let n = self.tracks.len();
         let outcome = self.paper.estimate(
             &self.config,
             self.tracks.as_slice(),
             &self.corners,
             prediction,
+            interval_us as f32 * 1e-6,
             &mut self.observed[..n],
         );
         Voted {

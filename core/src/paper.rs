@@ -96,6 +96,7 @@ impl<const F: usize, const GRID: usize> PaperScratch<F, GRID> {
         tracks: &[Track],
         corners: &Corners<F>,
         prediction: Option<Motion>,
+        interval_s: f32,
         observed: &mut [Option<Observation>],
     ) -> PaperOutcome {
         let proj = cfg.projection();
@@ -118,9 +119,9 @@ impl<const F: usize, const GRID: usize> PaperScratch<F, GRID> {
                 distance_lo_m: 0.0,
                 distance_hi_m: pv.startup_distance_max_m,
             },
-            // Per-frame change limits; the interval is taken as the nominal 0.1 s when unknown.
+            // The change limits over this frame's interval.
             Some(m) => {
-                let dt2 = 0.01;
+                let dt2 = interval_s * interval_s;
                 MotionWindow::around(
                     m,
                     c.dynamics.max_heading_accel_rad_s2 * dt2,
