@@ -305,23 +305,10 @@ mod tests {
 
     const DEG: f32 = core::f32::consts::PI / 180.0;
 
+    /// The KITTI camera 0 of the shared test configuration.
     fn kitti() -> (Intrinsics, Mount) {
-        (
-            Intrinsics {
-                fx_px: 718.856,
-                fy_px: 718.856,
-                cx_px: 607.1928,
-                cy_px: 185.2157,
-            },
-            Mount {
-                x_m: 1.0,
-                y_m: 0.0,
-                height_m: 1.65,
-                yaw_rad: 0.0,
-                pitch_rad: 0.0,
-                roll_rad: 0.0,
-            },
-        )
+        let c = crate::config::tests::kitti_config();
+        (c.intrinsics, c.mount)
     }
 
     #[test]
