@@ -36,7 +36,7 @@
 //! pitch_steps = 21                    #   in 0.1 deg steps
 //! max_pitch_change_steps = 5          #   at most 0.5 deg between frames
 //! heading_window_deg = 1.0            #   heading change window, per frame
-//! distance_window_m = 0.3             #   distance window, per frame
+//! distance_window_m = 0.15            #   distance window, per frame
 //! lateral_tolerance_m = 0.04          #   largest residual that votes
 //! ```
 

@@ -106,13 +106,15 @@ fn traffic_ahead_neither_stops_nor_jumps_the_estimate() {
         during < 0.6 * before,
         "inlier ratio {during:.2} in traffic, {before:.2} before"
     );
+    // Twice the clean drive's error; below 1% the short-segment figure of a 110 m drive is
+    // within its own noise, so the clean figure counts as at least that.
     let clean = drive("kitti-like", &[], 140, MethodName::Default);
     let (t, t_clean) = (
         d.report.short_t_err_pct.unwrap(),
         clean.report.short_t_err_pct.unwrap(),
     );
     assert!(
-        t <= 2.0 * t_clean.max(0.5),
+        t <= 2.0 * t_clean.max(1.0),
         "traffic {t:.2}% against clean {t_clean:.2}%"
     );
 }
