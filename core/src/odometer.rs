@@ -149,13 +149,12 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
         if !(3..=255).contains(&GRID) {
             return Err(crate::ConfigError::ExceedsCapacity { field: "GRID" });
         }
-        let level = usize::from(config.config().pitch_vote.pitch_steps / 2);
         Ok(Self {
-            config,
             state: State {
-                pitch_index: level,
+                pitch_index: level_pitch_index(&config),
                 ..State::default()
             },
+            config,
             tracks: Tracks::default(),
             corners: Corners::default(),
             harris: HarrisScratch::default(),
@@ -173,15 +172,10 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
     /// Forgets every frame: the next one starts a new trajectory at the origin.
     pub fn reset(&mut self) {
         self.state = State {
-            pitch_index: self.level_pitch_index(),
+            pitch_index: level_pitch_index(&self.config),
             ..State::default()
         };
         self.tracks.clear();
-    }
-
-    /// The pitch hypothesis of a level body: the middle one.
-    fn level_pitch_index(&self) -> usize {
-        usize::from(self.config.config().pitch_vote.pitch_steps / 2)
     }
 
     /// Processes one frame taken at `timestamp_us` (microseconds, increasing).
@@ -394,10 +388,10 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
     /// Moves the tracks into this frame and starts tracks from unmatched observations; returns
     /// the observations refused by a full pool.
     fn update_tracks(&mut self, motion: Motion, trusted: bool) -> u16 {
-        // Observations that matched an untrusted vote still start no track: their tracks carry on.
         let n = self.tracks.len();
         if !trusted {
-            // An untrusted vote's matches are not evidence: carry every track along.
+            // An untrusted vote's matches are not evidence: carry every track along (the
+            // observations it matched start no track; their tracks carry on).
             self.observed[..n].fill(None);
         }
         let cfg = &self.config;
@@ -412,6 +406,11 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
             Method::Paper => spawn_all(&mut self.tracks, self.paper.unmatched()),
         }
     }
+}
+
+/// The pitch hypothesis of a level body: the middle one.
+fn level_pitch_index(config: &ValidConfig) -> usize {
+    usize::from(config.config().pitch_vote.pitch_steps / 2)
 }
 
 /// Starts a track at each observation; returns how many a full pool refused.

@@ -5,7 +5,7 @@ use crate::kitti::{Pose, Sequence};
 use crate::mount::{MethodName, MountFile};
 use anyhow::{Context, Result, anyhow, bail};
 use indicatif::{ProgressBar, ProgressStyle};
-use roadvo::{Estimate, Odometer, SliceFrame};
+use roadvo::{Estimate, Odometer, SliceFrame, ValidConfig};
 use serde::Serialize;
 use std::io::Write;
 use std::path::Path;
@@ -95,14 +95,7 @@ pub fn bench_sequence(
     frames: usize,
     repeats: usize,
 ) -> Result<BenchOutput> {
-    let mut mount = mount.clone();
-    if let Some(m) = method {
-        mount.odometer.method = m;
-    }
-    let config = mount
-        .to_config()
-        .validate()
-        .map_err(|e| anyhow!("mount file: {e}"))?;
+    let config = config_for(seq, mount, method)?;
     let n = frames.min(seq.frames);
     let images = (0..n).map(|i| seq.load(i)).collect::<Result<Vec<_>, _>>()?;
     let (w, h) = seq.size;
@@ -120,6 +113,36 @@ pub fn bench_sequence(
         }
     }
     Ok(BenchOutput { per_frame })
+}
+
+/// The validated configuration of `mount` (its method replaced by `method` if given) for the
+/// frames of `seq`, whose size it must match.
+fn config_for(
+    seq: &Sequence,
+    mount: &MountFile,
+    method: Option<MethodName>,
+) -> Result<ValidConfig> {
+    let mut mount = mount.clone();
+    if let Some(m) = method {
+        mount.odometer.method = m;
+    }
+    let (w, h) = seq.size;
+    let camera = (
+        u32::from(mount.camera.width_px),
+        u32::from(mount.camera.height_px),
+    );
+    if camera != (w, h) {
+        bail!(
+            "the mount file's camera is {}x{} but the frames of {} are {w}x{h}",
+            camera.0,
+            camera.1,
+            seq.dir.display()
+        );
+    }
+    mount
+        .to_config()
+        .validate()
+        .map_err(|e| anyhow!("mount file: {e}"))
 }
 
 /// The mount file of a sequence: `--mount` if given, else `SEQ_DIR/mount.toml`.
@@ -142,27 +165,8 @@ pub fn run_sequence(
     quality: Option<&Path>,
     progress: bool,
 ) -> Result<RunOutput> {
-    let mut mount = mount.clone();
-    if let Some(m) = method {
-        mount.odometer.method = m;
-    }
+    let config = config_for(seq, mount, method)?;
     let (w, h) = seq.size;
-    if (
-        u32::from(mount.camera.width_px),
-        u32::from(mount.camera.height_px),
-    ) != (w, h)
-    {
-        bail!(
-            "the mount file's camera is {}x{} but the frames of {} are {w}x{h}",
-            mount.camera.width_px,
-            mount.camera.height_px,
-            seq.dir.display()
-        );
-    }
-    let config = mount
-        .to_config()
-        .validate()
-        .map_err(|e| anyhow!("mount file: {e}"))?;
     let mut odo: Box<Odometer> = Box::new(Odometer::new(config).map_err(|e| anyhow!("{e}"))?);
     let bar = if progress {
         ProgressBar::new(seq.frames as u64).with_style(
