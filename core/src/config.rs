@@ -283,6 +283,80 @@ pub struct ValidConfig {
 }
 
 impl ValidConfig {
+    /// No configuration, all zeros (a 0x0 frame, no geometry): the placeholder of an
+    /// unconfigured odometer, so that one can be a zero-initialised `static`. Validation never
+    /// produces it (a valid frame has pixels).
+    pub(crate) const UNSET: Self = {
+        let zero_attitude = Attitude {
+            pitch_rad: 0.0,
+            roll_rad: 0.0,
+        };
+        Self {
+            config: Config {
+                image: ImageSize {
+                    width_px: 0,
+                    height_px: 0,
+                },
+                intrinsics: Intrinsics {
+                    fx_px: 0.0,
+                    fy_px: 0.0,
+                    cx_px: 0.0,
+                    cy_px: 0.0,
+                },
+                mount: Mount {
+                    x_m: 0.0,
+                    y_m: 0.0,
+                    height_m: 0.0,
+                    yaw_rad: 0.0,
+                    pitch_rad: 0.0,
+                    roll_rad: 0.0,
+                },
+                attitude_bounds: zero_attitude,
+                dynamics: Dynamics {
+                    max_heading_accel_rad_s2: 0.0,
+                    max_longitudinal_accel_m_s2: 0.0,
+                },
+                window: GroundWindow {
+                    near_m: 0.0,
+                    far_m: 0.0,
+                    half_width_m: 0.0,
+                },
+                features_per_side: 0,
+                track_max_misses: 0,
+                method: Method::PitchVote,
+                pitch_vote: PitchVoteSettings {
+                    pitch_range_rad: 0.0,
+                    pitch_steps: 0,
+                    max_pitch_change_steps: 0,
+                    heading_half_rad: 0.0,
+                    distance_half_m: 0.0,
+                    lateral_tolerance_m: 0.0,
+                    startup_heading_half_rad: 0.0,
+                    startup_distance_max_m: 0.0,
+                },
+                min_inlier_ratio: 0.0,
+                corner_threshold: 0,
+            },
+            projection: GroundProjection {
+                nominal: Homography::ZERO,
+                extremes: [Homography::ZERO; 4],
+            },
+            pitch_fan: [Homography::ZERO; MAX_PITCH_HYPOTHESES],
+            lift: CameraLift::ZERO,
+            roi: ImageRoi {
+                left_px: 0,
+                right_px: 0,
+                top_px: 0,
+                bottom_px: 0,
+            },
+        }
+    };
+
+    /// Whether this is a validated configuration rather than [`Self::UNSET`].
+    pub(crate) fn is_set(&self) -> bool {
+        self.config.image.width_px != 0
+    }
+
     /// The settings as given.
     pub fn config(&self) -> &Config {
         &self.config
@@ -295,7 +369,9 @@ impl ValidConfig {
 
     /// The homographies of the default method's pitch hypotheses, in order of pitch.
     pub fn pitch_fan(&self) -> &[Homography] {
-        &self.pitch_fan[..usize::from(self.config.pitch_vote.pitch_steps)]
+        // Validation bounds the steps; `min` shows the compiler the slice cannot fail.
+        let n = usize::from(self.config.pitch_vote.pitch_steps).min(MAX_PITCH_HYPOTHESES);
+        &self.pitch_fan[..n]
     }
 
     /// Lifts planar poses to KITTI camera poses through the mount.
@@ -306,6 +382,12 @@ impl ValidConfig {
     /// The image rectangle holding the ground window.
     pub fn roi(&self) -> ImageRoi {
         self.roi
+    }
+
+    /// The rows of each frame the odometer reads (the region of interest and the corner
+    /// detector's border): a camera need deliver no others.
+    pub fn rows_read(&self) -> core::ops::Range<u16> {
+        crate::harris::rows_read(self)
     }
 
     /// A ground point of the window's own frame (`ahead_m` along the camera's look direction from
@@ -616,7 +698,7 @@ struct Polygon {
 
 impl Polygon {
     fn points(&self) -> &[[f32; 2]] {
-        &self.points[..self.len]
+        &self.points[..self.len.min(self.points.len())]
     }
 
     fn push(&mut self, p: [f32; 2]) {

@@ -2,10 +2,12 @@
 //! only, keeping the strongest few on each side of straight ahead.
 //!
 //! The region of interest is swept in vertical strips `STRIP` columns wide, each top to bottom,
-//! with three-row ring buffers of gradients and responses: about 1.6 KiB of scratch whatever the
-//! frame's width, and every image row is read straight from the [`Frame`].
+//! with three-row ring buffers of gradient products and responses: about 4 KiB of scratch
+//! whatever the frame's width, and every image row is read from the [`Frame`] once per strip
+//! and row of the strip's three-row stencil.
 //!
-//! Per pixel: Sobel gradients (|g| <= 1020, `i16`), their products summed over a 3x3 box (`i32`),
+//! Per pixel: Sobel gradients (|g| <= 1020), their products (`i32`) summed over a 3x3 box as
+//! three column sums and a sliding sum of three columns (the same integers as a direct 3x3 sum),
 //! the response `det - k trace^2` with k = 5/128 in `i64`, stored shifted right by
 //! `RESPONSE_SHIFT` as `i32`. A corner is a 3x3 local maximum at or above the configured
 //! threshold; a parabola through its neighbours' responses gives its sub-pixel position.
@@ -51,7 +53,7 @@ impl Corner {
 
 /// The corners of one frame: the `K` strongest (at most `features_per_side`) on each side of the
 /// camera's look direction, as seen on the ground.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct Corners<const K: usize> {
     /// Left of straight ahead.
     pub left: BinaryHeap<Corner, Min, K>,
@@ -60,6 +62,14 @@ pub struct Corners<const K: usize> {
 }
 
 impl<const K: usize> Corners<K> {
+    /// No corners; `const` so that an odometer can be a zero-initialised `static`.
+    pub const fn new() -> Self {
+        Self {
+            left: BinaryHeap::new(),
+            right: BinaryHeap::new(),
+        }
+    }
+
     /// Empties both sides.
     pub fn clear(&mut self) {
         self.left.clear();
@@ -82,21 +92,41 @@ impl<const K: usize> Corners<K> {
     }
 }
 
+impl<const K: usize> Default for Corners<K> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 /// Line buffers for [`detect`]; they hold nothing between frames.
 #[derive(Clone, Debug)]
 pub struct HarrisScratch {
-    /// Sobel (gx, gy) of three rows, strip columns plus two each side.
-    grad: [[[i16; 2]; STRIP + 4]; 3],
+    /// The three image rows a gradient row reads, strip columns plus three each side; zero
+    /// beyond a short row's end.
+    pixels: [[u8; STRIP + 6]; 3],
+    /// Gradient products (gx gx, gy gy, gx gy) of three rows, strip columns plus two each side.
+    prod: [[[i32; 3]; STRIP + 4]; 3],
+    /// The products summed down the three rows, per column.
+    cols: [[i32; 3]; STRIP + 4],
     /// Responses of three rows, strip columns plus one each side.
     resp: [[i32; STRIP + 2]; 3],
 }
 
-impl Default for HarrisScratch {
-    fn default() -> Self {
+impl HarrisScratch {
+    /// Zeroed line buffers; `const` so that an odometer can be a zero-initialised `static`.
+    pub const fn new() -> Self {
         Self {
-            grad: [[[0; 2]; STRIP + 4]; 3],
+            pixels: [[0; STRIP + 6]; 3],
+            prod: [[[0; 3]; STRIP + 4]; 3],
+            cols: [[0; 3]; STRIP + 4],
             resp: [[0; STRIP + 2]; 3],
         }
+    }
+}
+
+impl Default for HarrisScratch {
+    fn default() -> Self {
+        Self::new()
     }
 }
 
@@ -122,6 +152,23 @@ fn parabola_peak(before: i32, at: i32, after: i32) -> I16F16 {
     let num = (b - f) << 16;
     let q = num / (2 * curvature);
     I16F16::from_bits(q.clamp(-(1 << 15), 1 << 15) as i32)
+}
+
+/// The rows of a frame of the configured size that [`detect`] reads: the region of interest and
+/// the detector's border around it. A camera may deliver only these (a readout window, a DMA of
+/// part of the frame); the rest of a frame is never looked at.
+pub fn rows_read(cfg: &ValidConfig) -> core::ops::Range<u16> {
+    let roi = cfg.roi();
+    let h = cfg.config().image.height_px;
+    if h <= 2 * BORDER {
+        return 0..0;
+    }
+    let top = roi.top_px.max(BORDER);
+    let bottom = roi.bottom_px.min(h - 1 - BORDER);
+    if top > bottom {
+        return 0..0;
+    }
+    top - BORDER..bottom + BORDER + 1
 }
 
 /// Finds the corners of `frame` inside the ground window of `cfg` into `out` (cleared first).
@@ -176,46 +223,48 @@ fn strip<F: Frame + ?Sized, const K: usize>(
     limit: usize,
 ) {
     let gx0 = usize::from(x0) - 2;
-    let ncols = usize::from(x1 - x0) + 1;
+    // At most a strip: the bound also lets the compiler drop the buffers' index checks.
+    let ncols = (usize::from(x1 - x0) + 1).min(STRIP);
     for yg in top - 2..=bottom + 2 {
         // Sobel gradients of row yg, columns x0-2 ..= x1+2.
-        let (above, here, below) = (frame.row(yg - 1), frame.row(yg), frame.row(yg + 1));
-        let px = |row: &[u8], x: usize| i32::from(row.get(x).copied().unwrap_or(0));
-        let slot = &mut scratch.grad[usize::from(yg) % 3];
-        for (i, g) in slot.iter_mut().take(ncols + 4).enumerate() {
-            let x = gx0 + i;
-            let gx = px(above, x + 1) + 2 * px(here, x + 1) + px(below, x + 1)
-                - px(above, x - 1)
-                - 2 * px(here, x - 1)
-                - px(below, x - 1);
-            let gy = px(below, x - 1) + 2 * px(below, x) + px(below, x + 1)
-                - px(above, x - 1)
-                - 2 * px(above, x)
-                - px(above, x + 1);
-            // |g| <= 4 * 255: fits i16.
-            *g = [gx as i16, gy as i16];
+        for (dy, span) in scratch.pixels.iter_mut().enumerate() {
+            let row = frame.row(yg - 1 + dy as u16);
+            let src = row.get(gx0 - 1..).unwrap_or(&[]);
+            let n = src.len().min(span.len());
+            let (head, tail) = span.split_at_mut(n);
+            head.copy_from_slice(src.get(..n).unwrap_or(&[]));
+            tail.fill(0);
+        }
+        let [above, here, below] = &scratch.pixels;
+        let slot = &mut scratch.prod[usize::from(yg) % 3];
+        let stencil = above.windows(3).zip(here.windows(3)).zip(below.windows(3));
+        for (p, ((a, h), b)) in slot.iter_mut().zip(stencil).take(ncols + 4) {
+            let (&[a0, a1, a2], &[h0, _, h2], &[b0, b1, b2]) = (a, h, b) else {
+                continue;
+            };
+            let [a0, a1, a2, h0, h2, b0, b1, b2] = [a0, a1, a2, h0, h2, b0, b1, b2].map(i32::from);
+            let gx = a2 + 2 * h2 + b2 - a0 - 2 * h0 - b0;
+            let gy = b0 + 2 * b1 + b2 - a0 - 2 * a1 - a2;
+            *p = [gx * gx, gy * gy, gx * gy];
         }
         if yg < top {
             continue;
         }
-        // Responses of row yr = yg - 1, columns x0-1 ..= x1+1.
+        // Responses of row yr = yg - 1, columns x0-1 ..= x1+1: the ring holds rows yr-1..=yr+1,
+        // and their order does not matter to a sum.
         let yr = yg - 1;
-        let rows = [
-            &scratch.grad[usize::from(yr - 1) % 3],
-            &scratch.grad[usize::from(yr) % 3],
-            &scratch.grad[usize::from(yr + 1) % 3],
-        ];
+        let [p0, p1, p2] = &scratch.prod;
+        for (c, ((a, b), d)) in scratch.cols.iter_mut().zip(p0.iter().zip(p1).zip(p2)) {
+            *c = [a[0] + b[0] + d[0], a[1] + b[1] + d[1], a[2] + b[2] + d[2]];
+        }
         let resp = &mut scratch.resp[usize::from(yr) % 3];
-        for (i, r) in resp.iter_mut().take(ncols + 2).enumerate() {
-            let (mut sxx, mut syy, mut sxy) = (0i32, 0i32, 0i32);
-            for row in rows {
-                for g in &row[i..i + 3] {
-                    let (gx, gy) = (i32::from(g[0]), i32::from(g[1]));
-                    sxx += gx * gx;
-                    syy += gy * gy;
-                    sxy += gx * gy;
-                }
-            }
+        for (r, w) in resp.iter_mut().zip(scratch.cols.windows(3)).take(ncols + 2) {
+            let &[c0, c1, c2] = w else {
+                continue;
+            };
+            let sxx = c0[0] + c1[0] + c2[0];
+            let syy = c0[1] + c1[1] + c2[1];
+            let sxy = c0[2] + c1[2] + c2[2];
             let (sxx, syy, sxy) = (i64::from(sxx), i64::from(syy), i64::from(sxy));
             let trace = sxx + syy;
             let value = sxx * syy - sxy * sxy - ((K_NUM * trace * trace) >> K_SHIFT);
@@ -231,26 +280,23 @@ fn strip<F: Frame + ?Sized, const K: usize>(
             &scratch.resp[usize::from(yn) % 3],
             &scratch.resp[usize::from(yn + 1) % 3],
         );
-        for i in 1..=ncols {
-            let r = mid[i];
+        // Column i of the strip is entry i + 1 of the rows: the middle of window i.
+        let windows = up.windows(3).zip(mid.windows(3)).zip(down.windows(3));
+        for (i, ((up, mid), down)) in windows.take(ncols).enumerate() {
+            let (&[ul, uc, ur], &[ml, r, mr], &[dl, dc, dr]) = (up, mid, down) else {
+                continue;
+            };
             if r < threshold {
                 continue;
             }
             // Strict against earlier neighbours, not later ones: one peak per plateau.
-            let is_max = r > up[i - 1]
-                && r > up[i]
-                && r > up[i + 1]
-                && r > mid[i - 1]
-                && r >= mid[i + 1]
-                && r >= down[i - 1]
-                && r >= down[i]
-                && r >= down[i + 1];
+            let is_max =
+                r > ul && r > uc && r > ur && r > ml && r >= mr && r >= dl && r >= dc && r >= dr;
             if !is_max {
                 continue;
             }
-            let u = I16F16::from_num(usize::from(x0) + i - 1)
-                + parabola_peak(mid[i - 1], r, mid[i + 1]);
-            let v = I16F16::from_num(yn) + parabola_peak(up[i], r, down[i]);
+            let u = I16F16::from_num(usize::from(x0) + i) + parabola_peak(ml, r, mr);
+            let v = I16F16::from_num(yn) + parabola_peak(uc, r, dc);
             let corner = Corner {
                 response: r,
                 v_px: v,
@@ -311,6 +357,49 @@ mod tests {
             }
         }
         img
+    }
+
+    /// A frame that notes the first and last rows asked of it.
+    struct Recording<'a> {
+        inner: SliceFrame<'a>,
+        asked: core::cell::Cell<(u16, u16)>,
+    }
+
+    impl Frame for Recording<'_> {
+        fn width(&self) -> u16 {
+            self.inner.width()
+        }
+        fn height(&self) -> u16 {
+            self.inner.height()
+        }
+        fn row(&self, y: u16) -> &[u8] {
+            let (lo, hi) = self.asked.get();
+            self.asked.set((lo.min(y), hi.max(y)));
+            self.inner.row(y)
+        }
+    }
+
+    #[test]
+    fn detection_reads_exactly_rows_read() {
+        for far_m in [12.0, 20.0] {
+            let mut c = kitti_config();
+            c.window.far_m = far_m;
+            let cfg = c.validate().unwrap();
+            let img = frame_with_squares(&cfg, &[GroundPoint { x_m: 8.0, y_m: 1.0 }], 6);
+            let f = Recording {
+                inner: SliceFrame::new(&img, 1241, 376, 1241).unwrap(),
+                asked: core::cell::Cell::new((u16::MAX, 0)),
+            };
+            detect(
+                &f,
+                &cfg,
+                &mut HarrisScratch::new(),
+                &mut Corners::<32>::new(),
+            );
+            let rows = rows_read(&cfg);
+            assert!(rows.start > 150 && rows.end <= 376, "{rows:?}");
+            assert_eq!(f.asked.get(), (rows.start, rows.end - 1));
+        }
     }
 
     #[test]

@@ -7,7 +7,7 @@
 //! so a straight line (alpha = 0) is the arc's continuous limit rather than a special case.
 
 use crate::projection::{GroundPoint, Mount};
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{ArrayStorage, Matrix3, Vector3};
 
 /// `sin(x) / x`, continuous through zero.
 fn sinc(x: f32) -> f32 {
@@ -141,6 +141,12 @@ pub struct CameraLift {
 }
 
 impl CameraLift {
+    /// All zeros: the placeholder of an unconfigured odometer.
+    pub(crate) const ZERO: Self = Self {
+        rotation: Matrix3::from_array_storage(ArrayStorage([[0.0; 3]; 3])),
+        position: Vector3::from_array_storage(ArrayStorage([[0.0; 3]; 1])),
+    };
+
     /// The lift for a camera on `mount`.
     pub fn new(mount: &Mount) -> Self {
         Self {

@@ -6,6 +6,7 @@ use crate::harris::{self, Corners, HarrisScratch};
 use crate::motion::{Motion, Pose2};
 use crate::paper::PaperScratch;
 use crate::pitch_vote::{ABSOLUTE_GAIN, PitchVoteScratch};
+use crate::projection::Homography;
 use crate::tracks::{Observation, Spawn, Tracks};
 use crate::vote::MotionWindow;
 use core::fmt;
@@ -14,6 +15,9 @@ use core::fmt;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum FrameError {
+    /// The odometer was built as [`Odometer::UNCONFIGURED`] and has not been given a
+    /// configuration yet ([`Odometer::configure`]).
+    NotConfigured,
     /// The frame's size is not the configured one.
     WrongSize {
         /// Configured (width, height), pixels.
@@ -33,6 +37,7 @@ pub enum FrameError {
 impl fmt::Display for FrameError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
+            Self::NotConfigured => f.write_str("the odometer has no configuration yet"),
             Self::WrongSize { expected, got } => write!(
                 f,
                 "frame is {}x{} pixels, the configuration expects {}x{}",
@@ -90,7 +95,7 @@ pub struct Estimate {
 }
 
 /// What carries from one frame to the next.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 struct State {
     last_timestamp_us: Option<u64>,
     /// Interval between the last two frames, microseconds (0 before two frames).
@@ -131,16 +136,61 @@ pub struct Odometer<
     observed: [Option<Observation>; MAX_TRACKS],
 }
 
+impl State {
+    /// Before the first frame, the body assumed level.
+    fn start(config: &ValidConfig) -> Self {
+        Self {
+            pitch_index: level_pitch_index(config),
+            ..Self::ZERO
+        }
+    }
+
+    /// All zeros, for a zero-initialised odometer.
+    const ZERO: Self = Self {
+        last_timestamp_us: None,
+        last_interval_us: 0,
+        motion: None,
+        pose: Pose2::IDENTITY,
+        widen: 0,
+        pitch_index: 0,
+        pitch_integrator: 0.0,
+    };
+}
+
 /// Largest number of window doublings after consecutive fallbacks.
 const MAX_WIDEN: u8 = 3;
 
 impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
     Odometer<MAX_TRACKS, MAX_FEATURES, GRID>
 {
-    /// An odometer for `config`. Fails if the configuration asks for more corners per side than
-    /// `MAX_FEATURES`, or if `GRID` is too small to vote (under 3) or too large for the
-    /// accumulator's 16-bit cell index (over 255).
+    /// An odometer with no configuration, refusing every frame with
+    /// [`FrameError::NotConfigured`] until [`configure`](Self::configure) gives it one.
+    ///
+    /// Every byte of it is zero, so a `static` initialised with it goes to `.bss`: it costs no
+    /// flash, and [`configure`](Self::configure) fills it in place, never building the whole
+    /// odometer on the stack (the firmware example does this).
+    pub const UNCONFIGURED: Self = Self {
+        config: ValidConfig::UNSET,
+        state: State::ZERO,
+        tracks: Tracks::new(),
+        corners: Corners::new(),
+        harris: HarrisScratch::new(),
+        pitch_vote: PitchVoteScratch::new(),
+        paper: PaperScratch::new(),
+        observed: [None; MAX_TRACKS],
+    };
+
+    /// An odometer for `config`; see [`configure`](Self::configure) for the errors.
     pub fn new(config: ValidConfig) -> Result<Self, crate::ConfigError> {
+        let mut odometer = Self::UNCONFIGURED;
+        odometer.configure(config)?;
+        Ok(odometer)
+    }
+
+    /// Takes `config` and forgets every frame. Fails, leaving the odometer as it was, if the
+    /// configuration asks for more corners per side than `MAX_FEATURES`, or if `GRID` is too
+    /// small to vote (under 3) or too large for the accumulator's 16-bit cell index (over 255).
+    pub fn configure(&mut self, config: ValidConfig) -> Result<(), crate::ConfigError> {
         if usize::from(config.config().features_per_side) > MAX_FEATURES {
             return Err(crate::ConfigError::ExceedsCapacity {
                 field: "features_per_side",
@@ -149,19 +199,14 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
         if !(3..=255).contains(&GRID) {
             return Err(crate::ConfigError::ExceedsCapacity { field: "GRID" });
         }
-        Ok(Self {
-            state: State {
-                pitch_index: level_pitch_index(&config),
-                ..State::default()
-            },
-            config,
-            tracks: Tracks::default(),
-            corners: Corners::default(),
-            harris: HarrisScratch::default(),
-            pitch_vote: PitchVoteScratch::default(),
-            paper: PaperScratch::default(),
-            observed: [None; MAX_TRACKS],
-        })
+        self.config = config;
+        self.reset();
+        Ok(())
+    }
+
+    /// The vehicle's pose after the last frame, in the vehicle frame of the first frame.
+    pub fn pose(&self) -> Pose2 {
+        self.state.pose
     }
 
     /// The configuration in use.
@@ -171,10 +216,7 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
 
     /// Forgets every frame: the next one starts a new trajectory at the origin.
     pub fn reset(&mut self) {
-        self.state = State {
-            pitch_index: level_pitch_index(&self.config),
-            ..State::default()
-        };
+        self.state = State::start(&self.config);
         self.tracks.clear();
     }
 
@@ -251,6 +293,9 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
         frame: &F,
         timestamp_us: u64,
     ) -> Result<Option<u64>, FrameError> {
+        if !self.config.is_set() {
+            return Err(FrameError::NotConfigured);
+        }
         let size = self.config.config().image;
         let (w, h) = (frame.width(), frame.height());
         if (w, h) != (size.width_px, size.height_px) {
@@ -286,9 +331,18 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
         })
     }
 
+    /// The homography of the last frame's pitch hypothesis (nominal for the paper's method,
+    /// whose index stays level).
+    fn pitch_homography(&self) -> Homography {
+        let fan = self.config.pitch_fan();
+        fan.get(self.state.pitch_index)
+            .copied()
+            .unwrap_or(self.config.projection().nominal)
+    }
+
     /// Makes tracks of every corner (nominal attitude); returns the refused ones.
     fn start_tracks(&mut self) -> u16 {
-        let h = self.config.pitch_fan()[self.state.pitch_index];
+        let h = self.pitch_homography();
         let seen = self.corners.iter().filter_map(|c| {
             let pixel = c.pixel();
             h.backproject(pixel)
@@ -331,24 +385,22 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
         );
         let Some(outcome) = outcome else {
             // No pair voted: every observation (at the previous pitch) starts a track.
-            let h = self.config.pitch_fan()[self.state.pitch_index];
+            let h = self.pitch_homography();
             self.pitch_vote.observe(&self.corners, &h);
             self.pitch_vote.forget_matches();
-            let n = self.tracks.len();
-            self.observed[..n].fill(None);
+            slots(&mut self.observed, self.tracks.len()).fill(None);
             return Voted::default();
         };
         self.state.pitch_index = outcome.pitch_index;
         // Along the chord a match may be off by the bins the centre of gravity spans.
         let along = 2.0 * window.distance_step_m(GRID) + pv.lateral_tolerance_m;
-        let n = self.tracks.len();
         let matched = self.pitch_vote.match_tracks(
             &self.config,
             self.tracks.as_slice(),
             outcome.motion,
             pv.lateral_tolerance_m,
             along,
-            &mut self.observed[..n],
+            slots(&mut self.observed, self.tracks.len()),
         );
         // Feed the absolute pitch: positive error means too far nose down, a higher index.
         let steps = pv.pitch_steps.saturating_sub(1).max(1);
@@ -368,14 +420,13 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
 
     /// The paper's method (see [`crate::paper`]).
     fn vote_paper(&mut self, prediction: Option<Motion>, interval_us: u64) -> Voted {
-        let n = self.tracks.len();
         let outcome = self.paper.estimate(
             &self.config,
             self.tracks.as_slice(),
             &self.corners,
             prediction,
             interval_us as f32 * 1e-6,
-            &mut self.observed[..n],
+            slots(&mut self.observed, self.tracks.len()),
         );
         Voted {
             motion: outcome.motion,
@@ -388,19 +439,17 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
     /// Moves the tracks into this frame and starts tracks from unmatched observations; returns
     /// the observations refused by a full pool.
     fn update_tracks(&mut self, motion: Motion, trusted: bool) -> u16 {
-        let n = self.tracks.len();
+        let observed = slots(&mut self.observed, self.tracks.len());
         if !trusted {
             // An untrusted vote's matches are not evidence: carry every track along (the
             // observations it matched start no track; their tracks carry on).
-            self.observed[..n].fill(None);
+            observed.fill(None);
         }
         let cfg = &self.config;
         let max_misses = cfg.config().track_max_misses;
         // Tracks that left the window (passed under the camera, drifted aside) cannot be seen.
         self.tracks
-            .update(motion, &self.observed[..n], max_misses, |g| {
-                cfg.in_window(g)
-            });
+            .update(motion, observed, max_misses, |g| cfg.in_window(g));
         match cfg.config().method {
             Method::PitchVote => spawn_all(&mut self.tracks, self.pitch_vote.unmatched()),
             Method::Paper => spawn_all(&mut self.tracks, self.paper.unmatched()),
@@ -411,6 +460,16 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
 /// The pitch hypothesis of a level body: the middle one.
 fn level_pitch_index(config: &ValidConfig) -> usize {
     usize::from(config.config().pitch_vote.pitch_steps / 2)
+}
+
+/// The first `n` of the per-track observation slots: one per track held (`n` never exceeds
+/// their number; the bound is for the compiler, which cannot see that a pool's length is at
+/// most its capacity).
+fn slots<const N: usize>(
+    observed: &mut [Option<Observation>; N],
+    n: usize,
+) -> &mut [Option<Observation>] {
+    &mut observed[..n.min(N)]
 }
 
 /// Starts a track at each observation; returns how many a full pool refused.
@@ -483,6 +542,19 @@ mod tests {
         assert!(e.quality.fallback && e.quality.features_detected == 0);
         odo.reset();
         assert!(odo.process(&frame, 50).unwrap().quality.startup);
+    }
+
+    #[test]
+    fn an_unconfigured_odometer_refuses_frames_until_configured() {
+        let mut odo: Odometer = Odometer::UNCONFIGURED;
+        let img = vec![100u8; 1241 * 376];
+        let frame = SliceFrame::new(&img, 1241, 376, 1241).unwrap();
+        assert_eq!(odo.process(&frame, 0), Err(FrameError::NotConfigured));
+        odo.configure(kitti_config().validate().unwrap()).unwrap();
+        assert!(odo.process(&frame, 0).unwrap().quality.startup);
+        // Configuring again starts a new trajectory.
+        odo.configure(kitti_config().validate().unwrap()).unwrap();
+        assert!(odo.process(&frame, 0).unwrap().quality.startup);
     }
 
     #[test]

@@ -46,14 +46,21 @@ pub struct PaperScratch<const F: usize, const GRID: usize> {
     bits: [[u64; 4]; GRID],
 }
 
-impl<const F: usize, const GRID: usize> Default for PaperScratch<F, GRID> {
-    fn default() -> Self {
+impl<const F: usize, const GRID: usize> PaperScratch<F, GRID> {
+    /// Empty working memory; `const` so that an odometer can be a zero-initialised `static`.
+    pub const fn new() -> Self {
         Self {
-            grid: VoteGrid::default(),
+            grid: VoteGrid::new(),
             quads: [Vec::new(), Vec::new()],
             used: [[false; F]; 2],
             bits: [[0; 4]; GRID],
         }
+    }
+}
+
+impl<const F: usize, const GRID: usize> Default for PaperScratch<F, GRID> {
+    fn default() -> Self {
+        Self::new()
     }
 }
 
@@ -158,10 +165,10 @@ impl<const F: usize, const GRID: usize> PaperScratch<F, GRID> {
             let region = prediction_quad(t.ground, &window);
             let predicted = motion.move_point(t.ground);
             let mut best: Option<(f32, Observation)> = None;
-            for (side, quads) in self.quads.iter().enumerate() {
-                for (k, (q, pixel)) in quads.iter().enumerate() {
+            for (quads, used) in self.quads.iter().zip(&mut self.used) {
+                for ((q, pixel), used) in quads.iter().zip(used.iter_mut()) {
                     if q.overlaps(&region) {
-                        self.used[side][k] = true;
+                        *used = true;
                         let c = q.centroid();
                         let d = libm::hypotf(c.x_m - predicted.x_m, c.y_m - predicted.y_m);
                         if best.is_none_or(|b| d < b.0) {

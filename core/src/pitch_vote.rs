@@ -90,6 +90,19 @@ fn residual(p: GroundPoint, c: GroundPoint, t: &Trig) -> (f32, f32) {
     (across, along * inv_sinc)
 }
 
+/// Sorts one track's cells, ascending. Insertion sort rather than `sort_unstable`: a track's
+/// cells are few and mostly in order already, and core's sort keeps a panic path (for `Ord`
+/// impls that break its contract) that the firmware's panic-free link check refuses.
+fn sort_cells(cells: &mut [(u16, u16)]) {
+    for i in 1..cells.len() {
+        let mut j = i;
+        while j > 0 && cells[j - 1] > cells[j] {
+            cells.swap(j - 1, j);
+            j -= 1;
+        }
+    }
+}
+
 /// Working memory of the vote; holds nothing between frames.
 #[derive(Clone, Debug)]
 pub struct PitchVoteScratch<const N: usize, const F: usize, const GRID: usize> {
@@ -109,10 +122,17 @@ pub struct PitchVoteScratch<const N: usize, const F: usize, const GRID: usize> {
 
 impl<const N: usize, const F: usize, const GRID: usize> Default for PitchVoteScratch<N, F, GRID> {
     fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, GRID> {
+    /// Empty working memory; `const` so that an odometer can be a zero-initialised `static`.
+    pub const fn new() -> Self {
         Self {
-            grid: VoteGrid::default(),
+            grid: VoteGrid::new(),
             obs: [Vec::new(), Vec::new()],
-            prev: [GroundPoint::default(); N],
+            prev: [GroundPoint::ORIGIN; N],
             used: [[false; F]; 2],
             regression: [0.0; 5],
             cells: Vec::new(),
@@ -213,7 +233,7 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
                 }
             }
             // Each bin takes a track's best weight once.
-            self.cells.sort_unstable();
+            sort_cells(&mut self.cells);
             for (k, &(cell, weight)) in self.cells.iter().enumerate() {
                 let last_of_cell = self.cells.get(k + 1).is_none_or(|next| next.0 != cell);
                 if last_of_cell {
@@ -279,15 +299,15 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
         // range allows; what the range cuts off is dropped, so the integrator cannot wind up.
         let last = fan.len() as isize - 1;
         let (lo, hi) = (previous.min(cur) as isize, previous.max(cur) as isize);
-        let step = (libm::truncf(*integrator) as isize).clamp(-lo, last - hi);
+        // max then min rather than clamp: no panic path for bounds the compiler cannot order.
+        let step = (libm::truncf(*integrator) as isize).max(-lo).min(last - hi);
         *integrator = (*integrator - step as f32).clamp(-1.0, 1.0);
         let (p, c) = (
             previous.saturating_add_signed(step),
             cur.saturating_add_signed(step),
         );
-        let prev_h = (p != previous).then(|| fan[p]);
-        let peak =
-            self.try_pitches(tracks, corners, prev_h.as_ref(), &fan[c], window, tolerance)?;
+        let prev_h = if p == previous { None } else { fan.get(p) };
+        let peak = self.try_pitches(tracks, corners, prev_h, fan.get(c)?, window, tolerance)?;
         Some(VoteOutcome {
             motion: window.motion_at(peak.heading_bin, peak.distance_bin, GRID),
             pitch_index: c,
@@ -313,9 +333,9 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
         for (&p, slot) in self.prev.iter().take(tracks.len()).zip(observed.iter_mut()) {
             *slot = None;
             let mut best: Option<(f32, usize, usize)> = None;
-            for (side, obs) in self.obs.iter().enumerate() {
-                for (k, c) in obs.iter().enumerate() {
-                    if self.used[side][k] {
+            for (side, (obs, used)) in self.obs.iter().zip(&self.used).enumerate() {
+                for (k, (c, &used)) in obs.iter().zip(used).enumerate() {
+                    if used {
                         continue;
                     }
                     let (across, v) = residual(p, c.ground, &t);
@@ -328,9 +348,12 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
                     }
                 }
             }
-            if let Some((_, side, k)) = best {
-                self.used[side][k] = true;
-                let o = self.obs[side][k];
+            let taken = best.and_then(|(_, side, k)| {
+                let used = self.used.get_mut(side)?.get_mut(k)?;
+                *used = true;
+                self.obs.get(side)?.get(k).copied()
+            });
+            if let Some(o) = taken {
                 *slot = Some(o);
                 matched += 1;
                 let (_, v) = residual(p, o.ground, &t);

@@ -13,7 +13,7 @@
 //! Homographies are built in `f64` once per configuration and stored as `f32`: the per-frame path
 //! only multiplies 3x3 matrices.
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{ArrayStorage, Matrix3, Vector3};
 
 /// Pinhole intrinsics of the (rectified, undistorted) camera.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -96,6 +96,11 @@ pub struct GroundPoint {
     pub y_m: f32,
 }
 
+impl GroundPoint {
+    /// The rear-axle centre.
+    pub const ORIGIN: Self = Self { x_m: 0.0, y_m: 0.0 };
+}
+
 /// An image position, pixels (u right, v down; pixel centres at integer coordinates).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -160,6 +165,12 @@ pub struct Homography {
 }
 
 impl Homography {
+    /// All zeros: no mapping. The placeholder of an unconfigured odometer.
+    pub(crate) const ZERO: Self = Self {
+        ground_to_image: Matrix3::from_array_storage(ArrayStorage([[0.0; 3]; 3])),
+        image_to_ground: Matrix3::from_array_storage(ArrayStorage([[0.0; 3]; 3])),
+    };
+
     /// The homography for a camera with `intrinsics` on `mount`, the body at `attitude`. `None`
     /// where the ground plane is seen edge-on (the camera lies in the plane of the road).
     pub fn new(intrinsics: &Intrinsics, mount: &Mount, attitude: Attitude) -> Option<Self> {

@@ -48,12 +48,23 @@ pub enum Spawn {
 }
 
 /// A fixed-capacity pool of tracks.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct Tracks<const N: usize> {
     items: Vec<Track, N>,
 }
 
+impl<const N: usize> Default for Tracks<N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 impl<const N: usize> Tracks<N> {
+    /// An empty pool; `const` so that an odometer can be a zero-initialised `static`.
+    pub const fn new() -> Self {
+        Self { items: Vec::new() }
+    }
+
     /// Tracks held.
     pub fn len(&self) -> usize {
         self.items.len()

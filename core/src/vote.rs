@@ -68,11 +68,18 @@ pub struct VoteGrid<const GRID: usize> {
     cells: [[u16; GRID]; GRID],
 }
 
-impl<const GRID: usize> Default for VoteGrid<GRID> {
-    fn default() -> Self {
+impl<const GRID: usize> VoteGrid<GRID> {
+    /// An empty accumulator.
+    pub const fn new() -> Self {
         Self {
             cells: [[0; GRID]; GRID],
         }
+    }
+}
+
+impl<const GRID: usize> Default for VoteGrid<GRID> {
+    fn default() -> Self {
+        Self::new()
     }
 }
 
@@ -129,8 +136,17 @@ impl<const GRID: usize> VoteGrid<GRID> {
             return None;
         }
         let mut score = 0u32;
-        for row in &self.cells[at.0.saturating_sub(1)..=(at.0 + 1).min(GRID - 1)] {
-            for &c in &row[at.1.saturating_sub(1)..=(at.1 + 1).min(GRID - 1)] {
+        for row in self
+            .cells
+            .iter()
+            .skip(at.0.saturating_sub(1))
+            .take(3 - usize::from(at.0 == 0))
+        {
+            for &c in row
+                .iter()
+                .skip(at.1.saturating_sub(1))
+                .take(3 - usize::from(at.1 == 0))
+            {
                 score += u32::from(c);
             }
         }

@@ -1,58 +1,207 @@
-//! roadvo on a Cortex-M7: the configuration an ECU would hold, validated once at start-up, then
-//! the geometry the odometer runs on every frame. The engine's per-frame loop joins this once it
-//! exists; for now the example proves that the core links and runs without std or a heap.
+//! roadvo on a Cortex-M7, as an ECU integrates it: the odometer in a zero-initialised `static`,
+//! the configuration validated once at start-up, then one call to `process` per camera frame.
+//!
+//! The camera is stood in for by a recorded drive in the board's frame memory (see
+//! [`frame_store`]; `scripts/firmware` renders one, packs it, loads it into QEMU's PSRAM and
+//! compares what this firmware logs with the host's run, bit for bit). Each estimate goes out
+//! through defmt over semihosting; QEMU exits with 0 when the drive is done and 1 on any error
+//! (a panic included).
 #![no_std]
 #![no_main]
 
-use cortex_m_rt::entry;
-use panic_halt as _;
-use roadvo::{Config, ImageSize, Intrinsics, Motion, Mount, Pixel, Pose2};
+mod frame_store;
+mod log;
+mod stack;
 
-/// The KITTI camera 0 with the default settings.
-fn kitti_config() -> Config {
-    Config::with_defaults(
-        ImageSize {
-            width_px: 1241,
-            height_px: 376,
-        },
-        Intrinsics {
-            fx_px: 718.856,
-            fy_px: 718.856,
-            cx_px: 607.1928,
-            cy_px: 185.2157,
-        },
-        Mount {
-            x_m: 1.2,
-            y_m: 0.0,
-            height_m: 1.65,
-            yaw_rad: 0.0,
-            pitch_rad: 0.0,
-            roll_rad: 0.0,
-        },
-    )
+use cortex_m_rt::entry;
+use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
+use frame_store::{FrameStore, StoreError};
+use roadvo::{Config, ConfigError, FrameError, Odometer};
+
+/// Why the replay stopped.
+#[derive(defmt::Format)]
+enum Error {
+    /// The frame memory holds no usable drive.
+    Store(StoreError),
+    /// The drive's camera and mount do not make a valid configuration.
+    Config(ConfigError),
+    /// The stored rows do not cover the rows the odometer reads.
+    RowsMissing {
+        /// First row the odometer reads.
+        first: u16,
+        /// One past the last.
+        end: u16,
+    },
+    /// The odometer refused a frame.
+    Frame {
+        /// Frame number.
+        index: u32,
+        /// What was wrong with it.
+        error: FrameError,
+    },
+}
+
+impl From<StoreError> for Error {
+    fn from(e: StoreError) -> Self {
+        Self::Store(e)
+    }
+}
+
+impl From<ConfigError> for Error {
+    fn from(e: ConfigError) -> Self {
+        Self::Config(e)
+    }
+}
+
+/// The camera's frame memory, as the board's memory map (`memory.x`) places it.
+fn camera_memory() -> &'static [u8] {
+    #[allow(unsafe_code)]
+    unsafe extern "C" {
+        static _camera_memory_start: u8;
+        static _camera_memory_end: u8;
+    }
+    let start = &raw const _camera_memory_start;
+    let len = (&raw const _camera_memory_end) as usize - start as usize;
+    // SAFETY: the region is RAM of the board (memory.x), filled before reset by whatever plays the
+    // camera (QEMU's loader here), and nothing in this program writes it.
+    #[allow(unsafe_code)]
+    unsafe {
+        core::slice::from_raw_parts(start, len)
+    }
+}
+
+/// Marks the start of a call to `process` for the instruction counter (`scripts/qemu-icount.c`
+/// counts from the entry of this function to the entry of [`roadvo_frame_end`]).
+#[inline(never)]
+#[allow(unsafe_code)]
+#[unsafe(no_mangle)]
+pub extern "C" fn roadvo_frame_begin() {
+    // Unlike bodies, so that the two markers are never merged into one function.
+    core::hint::black_box(1u32);
+}
+
+/// Marks the end of a call to `process`.
+#[inline(never)]
+#[allow(unsafe_code)]
+#[unsafe(no_mangle)]
+pub extern "C" fn roadvo_frame_end() {
+    core::hint::black_box(2u32);
+}
+
+/// Configures `odometer` for the drive's camera and mount, once at start-up.
+fn configure(odometer: &mut Odometer, store: &FrameStore) -> Result<(), Error> {
+    let config = Config {
+        method: store.method(),
+        ..Config::with_defaults(store.image(), store.intrinsics(), store.mount())
+    }
+    .validate()?;
+    let rows = config.rows_read();
+    if !store.holds_rows(rows.clone()) {
+        return Err(Error::RowsMissing {
+            first: rows.start,
+            end: rows.end,
+        });
+    }
+    odometer.configure(config)?;
+    Ok(())
+}
+
+/// Replays the drive in the frame memory through `odometer`, logging every estimate.
+fn replay(odometer: &mut Odometer) -> Result<(), Error> {
+    let store = FrameStore::open(camera_memory())?;
+    configure(odometer, &store)?;
+    let rows = odometer.config().rows_read();
+    defmt::println!(
+        "odometer {=usize} bytes, reading rows {=u16}..{=u16} of {=u16}x{=u16} frames",
+        size_of::<Odometer>(),
+        rows.start,
+        rows.end,
+        store.image().width_px,
+        store.image().height_px
+    );
+    for index in 0..store.frames() {
+        let Some((frame, timestamp_us)) = store.frame(index) else {
+            return Err(StoreError::Truncated.into());
+        };
+        roadvo_frame_begin();
+        let estimate = odometer.process(&frame, timestamp_us);
+        roadvo_frame_end();
+        let e = estimate.map_err(|error| Error::Frame { index, error })?;
+        let q = &e.quality;
+        // The f32 bit patterns, for the comparison with the host (`roadvo run --trace`).
+        defmt::println!(
+            "estimate {=u32} {=u32} {=u32} {=u32} {=u32} {=u32} {=u32} {=u32} {=u16} {=u16} {=u8}",
+            index,
+            e.motion.distance_m.to_bits(),
+            e.motion.heading_change_rad.to_bits(),
+            e.pose.x_m.to_bits(),
+            e.pose.y_m.to_bits(),
+            e.pose.heading_rad.to_bits(),
+            q.pitch_rad.to_bits(),
+            q.inlier_ratio.to_bits(),
+            q.features_detected,
+            q.tracks_matched,
+            u8::from(q.fallback)
+        );
+        defmt::debug!("{}", e);
+    }
+    let pose = odometer.pose();
+    defmt::println!(
+        "final pose after {=u32} frames: x {=f32} m, y {=f32} m, heading {=f32} rad",
+        store.frames(),
+        pose.x_m,
+        pose.y_m,
+        pose.heading_rad
+    );
+    Ok(())
 }
 
 #[entry]
 fn main() -> ! {
-    let valid = match kitti_config().validate() {
-        Ok(v) => v,
-        // A real ECU reports the error; the example stops where a debugger sees it.
-        Err(_) => loop {
-            cortex_m::asm::bkpt();
-        },
+    // cortex-m-rt hands this to `main` alone as a `&'static mut`. Every byte of it is zero, so it
+    // sits in .bss: no flash, no copy at reset, and never built on the stack.
+    static mut ODOMETER: Odometer = Odometer::UNCONFIGURED;
+    let status = match replay(ODOMETER) {
+        Ok(()) => EXIT_SUCCESS,
+        Err(e) => {
+            defmt::error!("replay stopped: {}", e);
+            EXIT_FAILURE
+        }
     };
-    let roi = valid.roi();
-    let corner = Pixel {
-        u_px: f32::from(roi.left_px + roi.right_px) * 0.5,
-        v_px: f32::from(roi.bottom_px),
-    };
-    let quad = valid.projection().observe(corner);
-    let pose = Pose2::IDENTITY.advance(Motion {
-        heading_change_rad: 0.01,
-        distance_m: 1.0,
-    });
-    core::hint::black_box((quad, pose));
+    defmt::println!(
+        "stack high-water mark {=usize} bytes",
+        stack::high_water_bytes()
+    );
+    exit(status)
+}
+
+/// Ends the run: QEMU exits with 0 for success, 1 otherwise.
+fn exit(status: debug::ExitStatus) -> ! {
+    debug::exit(status);
+    // Only on a board without a debugger attached: nothing to return to.
     loop {
         cortex_m::asm::wfi();
+    }
+}
+
+#[cfg(not(feature = "panic-check"))]
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    defmt::error!("panic: {}", defmt::Display2Format(info));
+    exit(EXIT_FAILURE)
+}
+
+/// With `panic-check`, any panic path left in the program fails the link on this symbol.
+#[cfg(feature = "panic-check")]
+#[panic_handler]
+fn panic(_: &core::panic::PanicInfo) -> ! {
+    #[allow(unsafe_code)]
+    unsafe extern "C" {
+        fn roadvo_firmware_must_not_panic() -> !;
+    }
+    // SAFETY: never runs: the symbol exists nowhere, so a build that needs it does not link.
+    #[allow(unsafe_code)]
+    unsafe {
+        roadvo_firmware_must_not_panic()
     }
 }

@@ -4,6 +4,7 @@
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use roadvo_sim::eval::{Report, evaluate, format_report};
+use roadvo_sim::frame_store::pack;
 use roadvo_sim::kitti::Sequence;
 use roadvo_sim::kitti::{Pose, read_poses, write_poses};
 use roadvo_sim::mount::MethodName;
@@ -79,6 +80,27 @@ enum Command {
         /// Draw the trajectory (with ground truth from SEQ_DIR/../../poses/NN.txt if present).
         #[arg(long)]
         plot: Option<PathBuf>,
+        /// Write each frame's estimate as the f32 bit patterns the firmware example logs, for a
+        /// bit-for-bit comparison with it (scripts/firmware).
+        #[arg(long)]
+        trace: Option<PathBuf>,
+    },
+    /// Pack a sequence into the firmware example's frame store (the rows the odometer reads).
+    Pack {
+        /// The sequence folder.
+        seq_dir: PathBuf,
+        /// Where to write the store.
+        #[arg(long)]
+        out: PathBuf,
+        /// Mount file (default: SEQ_DIR/mount.toml).
+        #[arg(long)]
+        mount: Option<PathBuf>,
+        /// Override the mount file's method.
+        #[arg(long, value_enum)]
+        method: Option<MethodName>,
+        /// Frames from the start of the sequence (default: all).
+        #[arg(long)]
+        frames: Option<usize>,
     },
     /// Time the odometry alone on a sequence: frames preloaded, one thread, both methods.
     Bench {
@@ -203,10 +225,18 @@ fn main() -> Result<()> {
             method,
             quality,
             plot,
+            trace,
         } => {
             let seq = Sequence::open(&seq_dir)?;
             let mount = mount_for(&seq_dir, mount.as_deref())?;
-            let run = run_sequence(&seq, &mount, method, quality.as_deref(), true)?;
+            let run = run_sequence(
+                &seq,
+                &mount,
+                method,
+                quality.as_deref(),
+                trace.as_deref(),
+                true,
+            )?;
             write_poses(&out, &run.poses)?;
             print_run_summary(&run, &out);
             if let Some(p) = plot {
@@ -230,6 +260,26 @@ fn main() -> Result<()> {
                 plot_trajectories(&p, &seq_dir.display().to_string(), &tracks, report.as_ref())?;
                 println!("plot written to {}", p.display());
             }
+            Ok(())
+        }
+        Command::Pack {
+            seq_dir,
+            out,
+            mount,
+            method,
+            frames,
+        } => {
+            let seq = Sequence::open(&seq_dir)?;
+            let mount = mount_for(&seq_dir, mount.as_deref())?;
+            let packed = pack(&seq, &mount, method, frames, &out)?;
+            println!(
+                "{} frames, rows {}..{} of each, {} bytes written to {}",
+                packed.frames,
+                packed.rows.start,
+                packed.rows.end,
+                packed.bytes,
+                out.display()
+            );
             Ok(())
         }
         Command::Bench {
@@ -279,7 +329,7 @@ fn main() -> Result<()> {
                 ("default", MethodName::Default),
                 ("paper", MethodName::Paper),
             ] {
-                let run = run_sequence(&seq, &mount, Some(method), None, true)?;
+                let run = run_sequence(&seq, &mount, Some(method), None, None, true)?;
                 println!(
                     "{name:>8}: {} frames, {} fallbacks, odometry {:.0} frames/s",
                     run.estimates.len(),

@@ -1,6 +1,7 @@
 //! `roadvo run`: the odometer over a KITTI-layout sequence, frame by frame, as an ECU would run
 //! it, with the images decoded beforehand so that the odometry's own speed is measured apart.
 
+use crate::frame_store::{timestamp_us, trace_line};
 use crate::kitti::{Pose, Sequence};
 use crate::mount::{MethodName, MountFile};
 use anyhow::{Context, Result, anyhow, bail};
@@ -105,7 +106,7 @@ pub fn bench_sequence(
         for (i, img) in images.iter().enumerate() {
             let frame = SliceFrame::new(img.as_raw(), w as u16, h as u16, w as usize)
                 .context("frame buffer")?;
-            let t = (seq.times_s[i] * 1e6).round() as u64;
+            let t = timestamp_us(seq, i);
             let start = Instant::now();
             let est = odo.process(&frame, t);
             per_frame.push(start.elapsed());
@@ -117,7 +118,7 @@ pub fn bench_sequence(
 
 /// The validated configuration of `mount` (its method replaced by `method` if given) for the
 /// frames of `seq`, whose size it must match.
-fn config_for(
+pub fn config_for(
     seq: &Sequence,
     mount: &MountFile,
     method: Option<MethodName>,
@@ -163,6 +164,7 @@ pub fn run_sequence(
     mount: &MountFile,
     method: Option<MethodName>,
     quality: Option<&Path>,
+    trace: Option<&Path>,
     progress: bool,
 ) -> Result<RunOutput> {
     let config = config_for(seq, mount, method)?;
@@ -176,12 +178,13 @@ pub fn run_sequence(
     } else {
         ProgressBar::hidden()
     };
-    let mut quality_out = match quality {
-        Some(p) => Some(std::io::BufWriter::new(
-            std::fs::File::create(p).with_context(|| format!("cannot create {}", p.display()))?,
-        )),
-        None => None,
+    let create = |p: &Path| -> Result<_> {
+        let file =
+            std::fs::File::create(p).with_context(|| format!("cannot create {}", p.display()))?;
+        Ok(std::io::BufWriter::new(file))
     };
+    let mut quality_out = quality.map(create).transpose()?;
+    let mut trace_out = trace.map(create).transpose()?;
     let (mut decode, mut odometry) = (Duration::ZERO, Duration::ZERO);
     let mut estimates = Vec::with_capacity(seq.frames);
     let mut poses = Vec::with_capacity(seq.frames);
@@ -191,10 +194,10 @@ pub fn run_sequence(
         decode += t0.elapsed();
         let frame = SliceFrame::new(img.as_raw(), w as u16, h as u16, w as usize)
             .context("frame buffer")?;
-        let timestamp_us = (seq.times_s[i] * 1e6).round() as u64;
+        let t_us = timestamp_us(seq, i);
         let t1 = Instant::now();
         let est = odo
-            .process(&frame, timestamp_us)
+            .process(&frame, t_us)
             .with_context(|| format!("frame {i:06}"))?;
         odometry += t1.elapsed();
         let rows = odo.config().lift().camera_pose(&est.pose).rows;
@@ -221,11 +224,14 @@ pub fn run_sequence(
             };
             writeln!(out, "{}", serde_json::to_string(&line)?)?;
         }
+        if let Some(out) = trace_out.as_mut() {
+            writeln!(out, "{}", trace_line(i, &est))?;
+        }
         estimates.push(est);
         bar.inc(1);
     }
     bar.finish_and_clear();
-    if let Some(mut out) = quality_out {
+    for mut out in [quality_out, trace_out].into_iter().flatten() {
         out.flush()?;
     }
     Ok(RunOutput {

@@ -30,7 +30,7 @@ fn drives(scenario: &str, overlays: &[&str], frames: usize, methods: &[MethodNam
     methods
         .iter()
         .map(|&method| {
-            let run = run_sequence(&seq, &mount, Some(method), None, false).unwrap();
+            let run = run_sequence(&seq, &mount, Some(method), None, None, false).unwrap();
             let report = evaluate(&truth, &run.poses).unwrap();
             Drive {
                 report,
