@@ -265,9 +265,11 @@ fn strip<F: Frame + ?Sized, const K: usize>(
             let sxx = c0[0] + c1[0] + c2[0];
             let syy = c0[1] + c1[1] + c2[1];
             let sxy = c0[2] + c1[2] + c2[2];
-            let (sxx, syy, sxy) = (i64::from(sxx), i64::from(syy), i64::from(sxy));
-            let trace = sxx + syy;
-            let value = sxx * syy - sxy * sxy - ((K_NUM * trace * trace) >> K_SHIFT);
+            // Sums reach 9 * 1020^2, the trace twice that: i32. Products widen to i64 (one
+            // 32x32->64 multiply each on a Cortex-M).
+            let trace = i64::from(sxx + syy);
+            let det = i64::from(sxx) * i64::from(syy) - i64::from(sxy) * i64::from(sxy);
+            let value = det - ((K_NUM * (trace * trace)) >> K_SHIFT);
             *r = (value >> RESPONSE_SHIFT).clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32;
         }
         if yr <= top {

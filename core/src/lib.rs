@@ -27,6 +27,13 @@
 //! # Ok::<(), roadvo::ConfigError>(())
 //! ```
 //!
+//! ## On a microcontroller
+//! The odometer is too large for a small stack: keep it in a `static` initialised with
+//! [`Odometer::UNCONFIGURED`] (every byte zero, so it lands in `.bss` and costs no flash) and
+//! [`configure`](Odometer::configure) it in place at start-up. A camera need deliver only the rows
+//! [`ValidConfig::rows_read`] names. `firmware-example/` in the repository does both on a
+//! Cortex-M7, and proves its estimates bit-identical to the host's under QEMU.
+//!
 //! ## Modules, in the order the method uses them
 //! - [`config`]: the settings, validated once into a [`ValidConfig`].
 //! - [`projection`]: camera intrinsics, the mount, and the ground-plane homographies that turn a

@@ -1,7 +1,7 @@
 //! The paper's method (§2.2 and §2.3) as written, kept reproducible for comparison.
 //!
 //! 1. **Observation regions.** Each corner backprojects under the four extremal body attitudes
-//!    into a quadrilateral on the ground ([`GroundProjection::observe`]).
+//!    into a quadrilateral on the ground ([`GroundProjection::observe`](crate::projection::GroundProjection::observe)).
 //! 2. **Prediction regions.** The plausible motions form a patch: the previous motion +- the
 //!    dynamics limits times the frame interval squared (10 deg/s^2 and 1.5 m/s^2 by default).
 //!    Each track moved by the patch's four corner motions gives its prediction quadrilateral.

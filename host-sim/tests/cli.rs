@@ -100,3 +100,60 @@ fn bad_input_says_which_file_and_line() {
         "{err}"
     );
 }
+
+#[test]
+fn pack_stores_the_rows_the_odometer_reads_and_refuses_changed_settings() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    roadvo(&[
+        "simulate",
+        "--scenario",
+        "s-course",
+        "--out",
+        out,
+        "--frames",
+        "3",
+    ]);
+    let seq = dir.path().join("sequences/00");
+    let store = dir.path().join("frames.bin");
+    roadvo(&[
+        "pack",
+        seq.to_str().unwrap(),
+        "--out",
+        store.to_str().unwrap(),
+    ]);
+    let bytes = std::fs::read(&store).unwrap();
+    let u16_at = |at: usize| usize::from(u16::from_le_bytes([bytes[at], bytes[at + 1]]));
+    assert_eq!(&bytes[..4], b"RVFS");
+    let (w, h, first, rows) = (u16_at(8), u16_at(10), u16_at(12), u16_at(14));
+    assert_eq!(u32::from_le_bytes(bytes[16..20].try_into().unwrap()), 3);
+    assert!(rows > 0 && first + rows <= h, "rows {first}+{rows} of {h}");
+    let frame = 8 + rows * w;
+    assert_eq!(bytes.len(), 64 + 3 * frame);
+    // Frame 2's band is the image's rows, byte for byte.
+    let img = image::open(seq.join("image_0/000002.png"))
+        .unwrap()
+        .into_luma8();
+    let band = &img.as_raw()[first * w..(first + rows) * w];
+    assert_eq!(&bytes[64 + 2 * frame + 8..64 + 3 * frame], band);
+
+    // The store carries camera and mount only: a changed odometer setting is refused.
+    let mount = std::fs::read_to_string(seq.join("mount.toml")).unwrap();
+    let changed = dir.path().join("changed.toml");
+    assert!(mount.contains("features_per_side = 32"), "{mount}");
+    let mount = mount.replace("features_per_side = 32", "features_per_side = 16");
+    std::fs::write(&changed, mount).unwrap();
+    let refused = Command::new(env!("CARGO_BIN_EXE_roadvo"))
+        .args(["pack", seq.to_str().unwrap(), "--out"])
+        .arg(&store)
+        .arg("--mount")
+        .arg(&changed)
+        .output()
+        .unwrap();
+    assert!(!refused.status.success());
+    assert!(
+        String::from_utf8_lossy(&refused.stderr).contains("default odometer settings"),
+        "{}",
+        String::from_utf8_lossy(&refused.stderr)
+    );
+}
