@@ -5,6 +5,11 @@
 //! frame whose ground-truth path length from the first frame exceeds the length. The error of the
 //! segment is `E = (P'_first^-1 P'_last)^-1 (P_first^-1 P_last)`; its translation norm and
 //! rotation angle, divided by the segment length, are pooled over all segments.
+//!
+//! A planar method cannot follow the road's climb, so [`evaluate_planar`] also scores both
+//! trajectories in the ground plane only (camera-0 positions in x-z and heading about the
+//! vertical), and reports the planar floor: what the ground truth's own planar motion scores on
+//! the 3D metric, below which no planar estimate can go.
 
 use crate::kitti::Pose;
 use anyhow::{Result, bail};
@@ -71,6 +76,34 @@ pub struct Report {
     pub end_drift_pct: f64,
     /// Rotation angle between the final orientations, degrees.
     pub end_heading_err_deg: f64,
+    /// With `--planar`: the same report in the ground plane only.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub planar: Option<Box<Report>>,
+    /// With `--planar`: the 3D metric of the ground truth's own planar motion, (t_err %,
+    /// r_err deg/m); `None` where the drive is too short for KITTI segments.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub planar_floor: Option<(f64, f64)>,
+}
+
+/// A camera-0 pose in the ground plane: its position in x-z (y, down, set to 0) and its heading
+/// about the vertical (the yaw of its optical axis), the first frame's camera taken as level.
+pub fn planar_pose(p: &Pose) -> Pose {
+    let yaw = p[2].atan2(p[10]);
+    let (s, c) = yaw.sin_cos();
+    [c, 0.0, s, p[3], 0.0, 1.0, 0.0, 0.0, -s, 0.0, c, p[11]]
+}
+
+/// [`evaluate`], plus the same metric in the ground plane only and the planar floor.
+pub fn evaluate_planar(gt: &[Pose], est: &[Pose]) -> Result<Report> {
+    let mut report = evaluate(gt, est)?;
+    let (gt_p, est_p): (Vec<Pose>, Vec<Pose>) = (
+        gt.iter().map(planar_pose).collect(),
+        est.iter().map(planar_pose).collect(),
+    );
+    let floor = evaluate(gt, &gt_p)?;
+    report.planar_floor = floor.t_err_pct.zip(floor.r_err_deg_per_m);
+    report.planar = Some(Box::new(evaluate(&gt_p, &est_p)?));
+    Ok(report)
 }
 
 fn matrix(p: &Pose) -> Matrix4<f64> {
@@ -205,6 +238,8 @@ pub fn evaluate(gt: &[Pose], est: &[Pose]) -> Result<Report> {
             0.0
         },
         end_heading_err_deg: rotation_angle_rad(&end_rot).to_degrees(),
+        planar: None,
+        planar_floor: None,
     })
 }
 
@@ -246,6 +281,23 @@ pub fn format_report(r: &Report) -> String {
         "\nEnd point: drift {:.2} % of the path, heading error {:.2} deg\n",
         r.end_drift_pct, r.end_heading_err_deg
     );
+    if let Some(p) = &r.planar {
+        s += &format!(
+            "\nIn the ground plane only (x-z positions, heading): KITTI t_err {} %, r_err {} deg/m; \
+             short t_err {} %, r_err {} deg/m; end drift {:.2} %, heading error {:.2} deg\n",
+            opt(p.t_err_pct, 2),
+            opt(p.r_err_deg_per_m, 4),
+            opt(p.short_t_err_pct, 2),
+            opt(p.short_r_err_deg_per_m, 4),
+            p.end_drift_pct,
+            p.end_heading_err_deg
+        );
+        if let Some((t, r)) = r.planar_floor {
+            s += &format!(
+                "Planar floor (the ground truth's own planar motion on the 3D metric): t_err {t:.2} %, r_err {r:.4} deg/m\n"
+            );
+        }
+    }
     s
 }
 
@@ -330,6 +382,37 @@ mod tests {
             let got = rotation_angle_rad(&matrix(&p)).to_degrees();
             assert!((got - deg).abs() < 1e-9, "{got} vs {deg}");
         }
+    }
+
+    #[test]
+    fn planar_metric_ignores_the_climb_that_the_3d_metric_counts() {
+        // A straight 150 m drive climbing 5 %: the estimate stays level.
+        let est = straight(151, 1.0);
+        let gt: Vec<Pose> = est
+            .iter()
+            .map(|p| {
+                let mut q = *p;
+                q[7] = -0.05 * p[11];
+                q
+            })
+            .collect();
+        let r = evaluate_planar(&gt, &est).unwrap();
+        assert!(r.t_err_pct.unwrap() > 4.0, "{:?}", r.t_err_pct);
+        let planar = r.planar.as_ref().unwrap();
+        assert!(planar.t_err_pct.unwrap() < 1e-9, "{:?}", planar.t_err_pct);
+        // The floor is what the level estimate scores: it is the planar motion of the truth.
+        let (floor_t, _) = r.planar_floor.unwrap();
+        assert!((floor_t - r.t_err_pct.unwrap()).abs() < 1e-9);
+    }
+
+    #[test]
+    fn planar_pose_keeps_heading_and_ground_position() {
+        let p = planar(3.0, 1.5, 0.4);
+        assert!(
+            p.iter()
+                .zip(planar_pose(&p))
+                .all(|(a, b)| (a - b).abs() < 1e-12)
+        );
     }
 
     #[test]

@@ -3,7 +3,7 @@
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
-use roadvo_sim::eval::{Report, evaluate, format_report};
+use roadvo_sim::eval::{Report, evaluate, evaluate_planar, format_report};
 use roadvo_sim::frame_store::pack;
 use roadvo_sim::kitti::Sequence;
 use roadvo_sim::kitti::{Pose, read_poses, write_poses};
@@ -60,6 +60,10 @@ enum Command {
         /// Draw the top view and the error per segment length (.png or .svg).
         #[arg(long)]
         plot: Option<PathBuf>,
+        /// Also score both trajectories in the ground plane only (x-z positions and heading),
+        /// and report the planar floor of the ground truth.
+        #[arg(long)]
+        planar: bool,
     },
     /// Run the odometer over a KITTI-layout sequence and write its trajectory.
     Run {
@@ -151,11 +155,16 @@ struct Evaluated {
     est: Vec<Pose>,
 }
 
-fn eval_files(gt: &Path, est: &Path) -> Result<Evaluated> {
+fn eval_files(gt: &Path, est: &Path, planar: bool) -> Result<Evaluated> {
     let g = read_poses(gt)?;
     let e = read_poses(est)?;
-    let report = evaluate(&g, &e)
-        .with_context(|| format!("comparing {} with {}", est.display(), gt.display()))?;
+    let report = if planar {
+        evaluate_planar(&g, &e)
+    } else {
+        evaluate(&g, &e)
+    };
+    let report =
+        report.with_context(|| format!("comparing {} with {}", est.display(), gt.display()))?;
     Ok(Evaluated {
         report,
         gt: g,
@@ -191,12 +200,13 @@ fn main() -> Result<()> {
             est,
             json,
             plot,
+            planar,
         } => {
             let Evaluated {
                 report,
                 gt: g,
                 est: e,
-            } = eval_files(&gt, &est)?;
+            } = eval_files(&gt, &est, planar)?;
             if json {
                 println!("{}", serde_json::to_string_pretty(&report)?);
             } else {
@@ -228,7 +238,7 @@ fn main() -> Result<()> {
             trace,
         } => {
             let seq = Sequence::open(&seq_dir)?;
-            let mount = mount_for(&seq_dir, mount.as_deref())?;
+            let mount = mount_for(&seq, mount.as_deref())?;
             let run = run_sequence(
                 &seq,
                 &mount,
@@ -270,7 +280,7 @@ fn main() -> Result<()> {
             frames,
         } => {
             let seq = Sequence::open(&seq_dir)?;
-            let mount = mount_for(&seq_dir, mount.as_deref())?;
+            let mount = mount_for(&seq, mount.as_deref())?;
             let packed = pack(&seq, &mount, method, frames, &out)?;
             println!(
                 "{} frames, rows {}..{} of each, {} bytes written to {}",
@@ -290,7 +300,7 @@ fn main() -> Result<()> {
             repeats,
         } => {
             let seq = Sequence::open(&seq_dir)?;
-            let mount = mount_for(&seq_dir, mount.as_deref())?;
+            let mount = mount_for(&seq, mount.as_deref())?;
             let methods = match method {
                 Some(m) => vec![m],
                 None => vec![MethodName::Default, MethodName::Paper],
@@ -321,7 +331,7 @@ fn main() -> Result<()> {
             render(&sc, &out, seed, None)?;
             let seq_dir = sequence_dir(&out);
             let seq = Sequence::open(&seq_dir)?;
-            let mount = mount_for(&seq_dir, None)?;
+            let mount = mount_for(&seq, None)?;
             let gt = read_poses(&poses_path(&out))?;
             let mut reports = Vec::new();
             let mut runs = Vec::new();

@@ -1,6 +1,8 @@
 //! The mount file (`mount.toml`): a vehicle's camera, its mount and the odometer's settings, as a
 //! user writes them. Angles are in degrees here (radians in the core); every `[odometer]` entry is
-//! optional and defaults to the paper's value.
+//! optional and defaults to the paper's value. `[camera]` may be left out where the sequence
+//! carries its calibration (KITTI's `calib.txt` and the frames' size): one mount file then serves
+//! every sequence of a vehicle, whatever its image size (`mounts/kitti.toml`).
 //!
 //! ```toml
 //! [camera]            # pinhole intrinsics of the rectified image
@@ -40,7 +42,8 @@
 //! lateral_tolerance_m = 0.04          #   largest residual that votes
 //! ```
 
-use anyhow::{Context, Result};
+use crate::kitti::Sequence;
+use anyhow::{Context, Result, bail};
 use roadvo::{
     Attitude, Config, Dynamics, GroundWindow, ImageSize, Intrinsics, Method, Mount,
     PitchVoteSettings,
@@ -198,6 +201,35 @@ impl Default for OdometerSection {
     }
 }
 
+impl CameraSection {
+    /// The camera of a KITTI-layout sequence: `P0` of its `calib.txt` and its frames' size.
+    pub fn of_sequence(seq: &Sequence) -> Result<Self> {
+        let (w, h) = seq.size;
+        let size = |v: u32, what| {
+            u16::try_from(v)
+                .with_context(|| format!("{} frames are {v} pixels {what}", seq.dir.display()))
+        };
+        Ok(Self {
+            width_px: size(w, "wide")?,
+            height_px: size(h, "high")?,
+            fx_px: seq.p0[0] as f32,
+            fy_px: seq.p0[5] as f32,
+            cx_px: seq.p0[2] as f32,
+            cy_px: seq.p0[6] as f32,
+        })
+    }
+}
+
+/// A mount file as written: `[camera]` may be missing.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MountFileText {
+    camera: Option<CameraSection>,
+    mount: MountSection,
+    #[serde(default)]
+    odometer: OdometerSection,
+}
+
 /// A whole mount file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -212,11 +244,25 @@ pub struct MountFile {
 }
 
 impl MountFile {
-    /// Reads and parses a mount file; errors name the file, and the line for syntax errors.
-    pub fn read(path: &Path) -> Result<Self> {
+    /// Reads and parses a mount file; errors name the file, and the line for syntax errors. A
+    /// file without `[camera]` takes `camera` (a sequence's calibration), and is refused without.
+    pub fn read(path: &Path, camera: Option<&CameraSection>) -> Result<Self> {
         let text = std::fs::read_to_string(path)
             .with_context(|| format!("cannot read mount file {}", path.display()))?;
-        toml::from_str(&text).with_context(|| format!("in mount file {}", path.display()))
+        let file: MountFileText =
+            toml::from_str(&text).with_context(|| format!("in mount file {}", path.display()))?;
+        let Some(camera) = file.camera.or_else(|| camera.cloned()) else {
+            bail!(
+                "mount file {} has no [camera] section, and there is no sequence to take the \
+                 camera from",
+                path.display()
+            );
+        };
+        Ok(Self {
+            camera,
+            mount: file.mount,
+            odometer: file.odometer,
+        })
     }
 
     /// Writes the file with a header that says what it is.
@@ -329,7 +375,25 @@ height_m = 1.65
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("mount.toml");
         f.write(&p).unwrap();
-        assert_eq!(MountFile::read(&p).unwrap(), f);
+        assert_eq!(MountFile::read(&p, None).unwrap(), f);
+    }
+
+    #[test]
+    fn a_file_without_camera_takes_the_sequence_camera_or_says_it_has_none() {
+        let shipped = concat!(env!("CARGO_MANIFEST_DIR"), "/../mounts/kitti.toml");
+        let seq_camera: MountFile = toml::from_str(KITTI).unwrap();
+        let f = MountFile::read(Path::new(shipped), Some(&seq_camera.camera)).unwrap();
+        assert_eq!(f.camera, seq_camera.camera);
+        assert_eq!(f.mount.height_m, 1.65);
+        f.to_config().validate().unwrap();
+        let e = format!(
+            "{:#}",
+            MountFile::read(Path::new(shipped), None).unwrap_err()
+        );
+        assert!(
+            e.contains("kitti.toml") && e.contains("no [camera] section"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -338,7 +402,7 @@ height_m = 1.65
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("mount.toml");
         std::fs::write(&p, bad).unwrap();
-        let e = format!("{:#}", MountFile::read(&p).unwrap_err());
+        let e = format!("{:#}", MountFile::read(&p, None).unwrap_err());
         assert!(e.contains("mount.toml") && e.contains("heigth"), "{e}");
         assert!(e.contains("line 13"), "{e}");
     }

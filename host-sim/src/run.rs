@@ -3,7 +3,7 @@
 
 use crate::frame_store::{timestamp_us, trace_line};
 use crate::kitti::{Pose, Sequence};
-use crate::mount::{MethodName, MountFile};
+use crate::mount::{CameraSection, MethodName, MountFile};
 use anyhow::{Context, Result, anyhow, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use roadvo::{Estimate, Odometer, SliceFrame, ValidConfig};
@@ -146,16 +146,18 @@ pub fn config_for(
         .map_err(|e| anyhow!("mount file: {e}"))
 }
 
-/// The mount file of a sequence: `--mount` if given, else `SEQ_DIR/mount.toml`.
-pub fn mount_for(seq_dir: &Path, mount: Option<&Path>) -> Result<MountFile> {
-    let path = mount.map_or_else(|| seq_dir.join("mount.toml"), Path::to_owned);
+/// The mount file of a sequence: `--mount` if given, else `SEQ_DIR/mount.toml`; without a
+/// `[camera]` section it takes the sequence's (`calib.txt` and the frames' size).
+pub fn mount_for(seq: &Sequence, mount: Option<&Path>) -> Result<MountFile> {
+    let path = mount.map_or_else(|| seq.dir.join("mount.toml"), Path::to_owned);
     if !path.exists() {
         bail!(
-            "no mount file: {} does not exist (pass --mount FILE; see the README for the format)",
+            "no mount file: {} does not exist (pass --mount FILE, e.g. mounts/kitti.toml; see \
+             the README for the format)",
             path.display()
         );
     }
-    MountFile::read(&path)
+    MountFile::read(&path, Some(&CameraSection::of_sequence(seq)?))
 }
 
 /// Runs the odometer with `mount` (its method replaced by `method` if given) over `seq`.

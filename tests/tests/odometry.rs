@@ -25,7 +25,7 @@ fn drives(scenario: &str, overlays: &[&str], frames: usize, methods: &[MethodNam
     simulate(&sc, dir.path(), 1, Some(frames), false).unwrap();
     let seq_dir = sequence_dir(dir.path());
     let seq = Sequence::open(&seq_dir).unwrap();
-    let mount = mount_for(&seq_dir, None).unwrap();
+    let mount = mount_for(&seq, None).unwrap();
     let truth = read_poses(&poses_path(dir.path())).unwrap();
     methods
         .iter()
