@@ -3,6 +3,8 @@
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use roadvo_sim::calibrate::calibrate;
 use roadvo_sim::eval::{Report, evaluate, evaluate_planar, format_report};
 use roadvo_sim::frame_store::pack;
 use roadvo_sim::kitti::Sequence;
@@ -89,6 +91,31 @@ enum Command {
         #[arg(long)]
         trace: Option<PathBuf>,
     },
+    /// Refine the mount (pitch, yaw, roll, height, offset ahead of the rear axle) so that the
+    /// odometry over a section with ground truth matches it.
+    Calibrate {
+        /// The sequence folder.
+        seq_dir: PathBuf,
+        /// Ground-truth poses of the sequence (KITTI format).
+        #[arg(long)]
+        gt: PathBuf,
+        /// The section, frames A..B (default: the whole sequence).
+        #[arg(long, value_parser = parse_frames)]
+        frames: Option<std::ops::Range<usize>>,
+        /// Where to write the refined mount file (without [camera]: each sequence's calibration
+        /// supplies it).
+        #[arg(long)]
+        out: PathBuf,
+        /// The starting mount (default: SEQ_DIR/mount.toml).
+        #[arg(long)]
+        mount: Option<PathBuf>,
+        /// Override the mount file's method.
+        #[arg(long, value_enum)]
+        method: Option<MethodName>,
+        /// Most odometry runs over the section.
+        #[arg(long, default_value_t = 150)]
+        max_runs: usize,
+    },
     /// Pack a sequence into the firmware example's frame store (the rows the odometer reads).
     Pack {
         /// The sequence folder.
@@ -170,6 +197,23 @@ fn eval_files(gt: &Path, est: &Path, planar: bool) -> Result<Evaluated> {
         gt: g,
         est: e,
     })
+}
+
+/// Parses a section of frames, `A..B`.
+fn parse_frames(s: &str) -> Result<std::ops::Range<usize>, String> {
+    let (a, b) = s
+        .split_once("..")
+        .ok_or_else(|| format!("{s:?} is not a section: write A..B, e.g. 0..100"))?;
+    let n = |v: &str| {
+        v.trim()
+            .parse::<usize>()
+            .map_err(|e| format!("{v:?} in {s:?}: {e}"))
+    };
+    let (a, b) = (n(a)?, n(b)?);
+    if a >= b {
+        return Err(format!("{s:?}: the section is empty"));
+    }
+    Ok(a..b)
 }
 
 fn main() -> Result<()> {
@@ -270,6 +314,61 @@ fn main() -> Result<()> {
                 plot_trajectories(&p, &seq_dir.display().to_string(), &tracks, report.as_ref())?;
                 println!("plot written to {}", p.display());
             }
+            Ok(())
+        }
+        Command::Calibrate {
+            seq_dir,
+            gt,
+            frames,
+            out,
+            mount,
+            method,
+            max_runs,
+        } => {
+            let seq = Sequence::open(&seq_dir)?;
+            let start = mount_for(&seq, mount.as_deref())?;
+            let poses = read_poses(&gt)?;
+            let section = frames.unwrap_or(0..seq.frames);
+            let bar = ProgressBar::new(max_runs as u64).with_style(
+                ProgressStyle::with_template("calibrating {bar:40} {pos}/{len} runs {msg}")
+                    .expect("valid template"),
+            );
+            let cal = calibrate(
+                &seq,
+                &poses,
+                section.clone(),
+                &start,
+                method,
+                max_runs,
+                |n, c| {
+                    bar.set_position(n as u64);
+                    bar.set_message(format!("cost {c:.3}"));
+                },
+            )?;
+            bar.finish_and_clear();
+            println!(
+                "frames {}..{} of {}: cost (short-segment t_err % + 100 x r_err deg/m) {:.3} -> {:.3} in {} runs, {:.1} s",
+                section.start,
+                section.end,
+                seq_dir.display(),
+                cal.cost_before,
+                cal.cost_after,
+                cal.evaluations,
+                cal.elapsed.as_secs_f64()
+            );
+            for (name, unit, before, after) in &cal.changes {
+                println!("  {name:>28}: {before:>8.3} -> {after:>8.3} {unit}");
+            }
+            let note = format!(
+                "# Calibrated by `roadvo calibrate` on frames {}..{} of {}: cost {:.3} -> {:.3}.\n",
+                section.start,
+                section.end,
+                seq_dir.display(),
+                cal.cost_before,
+                cal.cost_after
+            );
+            cal.mount.write(&out, false, &note)?;
+            println!("mount written to {}", out.display());
             Ok(())
         }
         Command::Pack {

@@ -221,9 +221,10 @@ impl CameraSection {
 }
 
 /// A mount file as written: `[camera]` may be missing.
-#[derive(Deserialize)]
+#[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct MountFileText {
+    #[serde(skip_serializing_if = "Option::is_none")]
     camera: Option<CameraSection>,
     mount: MountSection,
     #[serde(default)]
@@ -265,13 +266,19 @@ impl MountFile {
         })
     }
 
-    /// Writes the file with a header that says what it is.
-    pub fn write(&self, path: &Path) -> Result<()> {
-        let body = toml::to_string(self)?;
+    /// Writes the file with a header that says what it is, and `note` (comment lines) after it.
+    /// Without `with_camera` the `[camera]` section is left out: each sequence's calibration
+    /// then supplies it.
+    pub fn write(&self, path: &Path, with_camera: bool, note: &str) -> Result<()> {
+        let body = toml::to_string(&MountFileText {
+            camera: with_camera.then(|| self.camera.clone()),
+            mount: self.mount.clone(),
+            odometer: self.odometer.clone(),
+        })?;
         let text = format!(
             "# roadvo mount file: camera intrinsics, camera mount in the vehicle frame (origin on\n\
              # the road under the rear-axle centre, x forward, y left, z up; angles in degrees)\n\
-             # and odometer settings. Format: see host-sim/src/mount.rs or the README.\n\n{body}"
+             # and odometer settings. Format: see host-sim/src/mount.rs or the README.\n{note}\n{body}"
         );
         std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))
     }
@@ -374,7 +381,7 @@ height_m = 1.65
         let f: MountFile = toml::from_str(KITTI).unwrap();
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("mount.toml");
-        f.write(&p).unwrap();
+        f.write(&p, true, "").unwrap();
         assert_eq!(MountFile::read(&p, None).unwrap(), f);
     }
 

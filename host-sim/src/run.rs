@@ -87,6 +87,63 @@ impl BenchOutput {
     }
 }
 
+/// Frames decoded ahead of the odometry, for runs that time or repeat it.
+pub struct Preloaded {
+    images: Vec<image::GrayImage>,
+    times_us: Vec<u64>,
+    size: (u16, u16),
+}
+
+impl Preloaded {
+    /// Decodes `frames` of `seq` (clipped to the sequence).
+    pub fn load(seq: &Sequence, frames: std::ops::Range<usize>) -> Result<Self> {
+        let frames = frames.start.min(seq.frames)..frames.end.min(seq.frames);
+        let images = frames
+            .clone()
+            .map(|i| seq.load(i))
+            .collect::<Result<Vec<_>, _>>()?;
+        let size = (
+            u16::try_from(seq.size.0).context("frame width")?,
+            u16::try_from(seq.size.1).context("frame height")?,
+        );
+        Ok(Self {
+            images,
+            times_us: frames.map(|i| timestamp_us(seq, i)).collect(),
+            size,
+        })
+    }
+
+    /// Frames held.
+    pub fn len(&self) -> usize {
+        self.images.len()
+    }
+
+    /// Whether no frame is held.
+    pub fn is_empty(&self) -> bool {
+        self.images.is_empty()
+    }
+
+    /// Runs a fresh odometer with `config` over the frames on this thread; `each` sees every
+    /// frame's estimate and the time `process()` took.
+    pub fn run(
+        &self,
+        config: ValidConfig,
+        mut each: impl FnMut(&Estimate, Duration),
+    ) -> Result<()> {
+        let mut odo: Box<Odometer> = Box::new(Odometer::new(config).map_err(|e| anyhow!("{e}"))?);
+        let (w, h) = self.size;
+        for (i, (img, &t)) in self.images.iter().zip(&self.times_us).enumerate() {
+            let frame =
+                SliceFrame::new(img.as_raw(), w, h, usize::from(w)).context("frame buffer")?;
+            let start = Instant::now();
+            let est = odo.process(&frame, t);
+            let took = start.elapsed();
+            each(&est.with_context(|| format!("frame {i:06}"))?, took);
+        }
+        Ok(())
+    }
+}
+
 /// Times `process()` alone: every frame decoded first, then the whole sequence run `repeats`
 /// times on one thread, a fresh odometer each time.
 pub fn bench_sequence(
@@ -97,21 +154,13 @@ pub fn bench_sequence(
     repeats: usize,
 ) -> Result<BenchOutput> {
     let config = config_for(seq, mount, method)?;
-    let n = frames.min(seq.frames);
-    let images = (0..n).map(|i| seq.load(i)).collect::<Result<Vec<_>, _>>()?;
-    let (w, h) = seq.size;
-    let mut per_frame = Vec::with_capacity(n * repeats);
+    let frames = Preloaded::load(seq, 0..frames)?;
+    let mut per_frame = Vec::with_capacity(frames.len() * repeats);
     for _ in 0..repeats {
-        let mut odo: Box<Odometer> = Box::new(Odometer::new(config).map_err(|e| anyhow!("{e}"))?);
-        for (i, img) in images.iter().enumerate() {
-            let frame = SliceFrame::new(img.as_raw(), w as u16, h as u16, w as usize)
-                .context("frame buffer")?;
-            let t = timestamp_us(seq, i);
-            let start = Instant::now();
-            let est = odo.process(&frame, t);
-            per_frame.push(start.elapsed());
-            std::hint::black_box(est.with_context(|| format!("frame {i:06}"))?);
-        }
+        frames.run(config, |est, took| {
+            std::hint::black_box(est);
+            per_frame.push(took);
+        })?;
     }
     Ok(BenchOutput { per_frame })
 }

@@ -187,7 +187,9 @@ pub fn simulate(
         f64::from(cam.cx_px),
         f64::from(cam.cy_px),
     )?;
-    scenario.mount_file(true).write(&seq.join("mount.toml"))?;
+    scenario
+        .mount_file(true)
+        .write(&seq.join("mount.toml"), true, "")?;
     let record = format!(
         "# Rendered by `roadvo simulate` with --seed {seed} --frames {n}\n{}",
         scenario.to_toml()?

@@ -1,0 +1,203 @@
+//! `roadvo calibrate`: refines the camera mount (pitch, yaw, roll, height, distance ahead of the
+//! rear axle) so that the odometry over a section with ground truth matches it. The paper's §3
+//! does this by hand on its calibration course and leaves automating it as future work.
+//!
+//! The cost of a mount is the short-segment KITTI metric (segments of 10..50 m, see
+//! [`crate::eval`]) of the odometry over the section against the ground truth: translation error
+//! in percent plus rotation error in hundredths of a degree per metre, so that 1 % and
+//! 0.01 deg/m weigh the same. The odometry is not smooth in the mount (votes move between bins),
+//! so the search is a pattern search, not a gradient one: each parameter in turn is stepped up
+//! and down, the best improvement is kept, and all steps halve when a sweep improves nothing.
+//! Each parameter acts differently (paper §3): pitch and height scale distances, yaw biases
+//! rotation everywhere, roll biases it on straights, the longitudinal offset splits a turn
+//! between rotation and sideways motion. Some act alike on some roads: on a straight, a yaw
+//! error and a roll error of a camera pitched down both turn the odometry, and only bends tell
+//! them apart, so a section with bends calibrates better than a straight one.
+
+use crate::eval::evaluate;
+use crate::kitti::{Pose, Sequence};
+use crate::mount::{MethodName, MountFile};
+use crate::run::{Preloaded, config_for};
+use anyhow::{Result, bail};
+use std::ops::Range;
+use std::time::{Duration, Instant};
+
+/// One refined parameter: its name, how to read and write it in the mount file, its first and
+/// last step.
+struct Parameter {
+    name: &'static str,
+    unit: &'static str,
+    get: fn(&MountFile) -> f32,
+    set: fn(&mut MountFile, f32),
+    first_step: f32,
+    last_step: f32,
+}
+
+const PARAMETERS: [Parameter; 5] = [
+    Parameter {
+        name: "pitch",
+        unit: "deg",
+        get: |m| m.mount.pitch_deg,
+        set: |m, v| m.mount.pitch_deg = v,
+        first_step: 0.4,
+        last_step: 0.025,
+    },
+    Parameter {
+        name: "yaw",
+        unit: "deg",
+        get: |m| m.mount.yaw_deg,
+        set: |m, v| m.mount.yaw_deg = v,
+        first_step: 0.4,
+        last_step: 0.025,
+    },
+    Parameter {
+        name: "roll",
+        unit: "deg",
+        get: |m| m.mount.roll_deg,
+        set: |m, v| m.mount.roll_deg = v,
+        first_step: 0.4,
+        last_step: 0.025,
+    },
+    Parameter {
+        name: "height",
+        unit: "m",
+        get: |m| m.mount.height_m,
+        set: |m, v| m.mount.height_m = v,
+        first_step: 0.08,
+        last_step: 0.005,
+    },
+    Parameter {
+        name: "x (ahead of the rear axle)",
+        unit: "m",
+        get: |m| m.mount.x_m,
+        set: |m, v| m.mount.x_m = v,
+        first_step: 0.4,
+        last_step: 0.025,
+    },
+];
+
+/// What a calibration found.
+pub struct Calibration {
+    /// The refined mount.
+    pub mount: MountFile,
+    /// Cost of the starting mount (see the module docs).
+    pub cost_before: f64,
+    /// Cost of the refined mount.
+    pub cost_after: f64,
+    /// Odometry runs over the section.
+    pub evaluations: usize,
+    /// Wall time, decoding the section's frames included.
+    pub elapsed: Duration,
+    /// Per parameter: name, unit, start value, refined value.
+    pub changes: Vec<(&'static str, &'static str, f32, f32)>,
+}
+
+/// The short-segment cost of running `mount` over `frames` against `gt` (the section's poses);
+/// infinite where the mount does not make a valid configuration.
+fn cost(
+    seq: &Sequence,
+    frames: &Preloaded,
+    gt: &[Pose],
+    mount: &MountFile,
+    method: Option<MethodName>,
+) -> Result<f64> {
+    let Ok(config) = config_for(seq, mount, method) else {
+        return Ok(f64::INFINITY);
+    };
+    let mut est = Vec::with_capacity(frames.len());
+    frames.run(config, |e, _| {
+        let rows = config.lift().camera_pose(&e.pose).rows;
+        est.push(std::array::from_fn(|k| f64::from(rows[k / 4][k % 4])));
+    })?;
+    let report = evaluate(gt, &est)?;
+    match (report.short_t_err_pct, report.short_r_err_deg_per_m) {
+        (Some(t), Some(r)) => Ok(t + 100.0 * r),
+        _ => bail!("the section is too short: it needs at least 10 m of ground-truth path"),
+    }
+}
+
+/// Refines `start` over `section` of `seq` against its ground truth `gt` (poses of the whole
+/// sequence), in at most `max_evaluations` runs; `progress` sees each run's cost.
+pub fn calibrate(
+    seq: &Sequence,
+    gt: &[Pose],
+    section: Range<usize>,
+    start: &MountFile,
+    method: Option<MethodName>,
+    max_evaluations: usize,
+    mut progress: impl FnMut(usize, f64),
+) -> Result<Calibration> {
+    let began = Instant::now();
+    if gt.len() < seq.frames {
+        bail!(
+            "the ground truth has {} poses for {} frames",
+            gt.len(),
+            seq.frames
+        );
+    }
+    if section.start >= section.end || section.end > seq.frames {
+        bail!(
+            "frames {}..{} are not a section of the sequence's {} frames",
+            section.start,
+            section.end,
+            seq.frames
+        );
+    }
+    let frames = Preloaded::load(seq, section.clone())?;
+    let gt = &gt[section];
+    let mut best = start.clone();
+    let mut best_cost = cost(seq, &frames, gt, &best, method)?;
+    if !best_cost.is_finite() {
+        bail!("the starting mount does not make a valid configuration for this sequence");
+    }
+    let cost_before = best_cost;
+    let mut evaluations = 1;
+    progress(evaluations, best_cost);
+    let mut steps: Vec<f32> = PARAMETERS.iter().map(|p| p.first_step).collect();
+    'search: while PARAMETERS
+        .iter()
+        .zip(&steps)
+        .any(|(p, &s)| s >= p.last_step)
+    {
+        let mut improved = false;
+        for (p, &step) in PARAMETERS.iter().zip(&steps) {
+            if step < p.last_step {
+                continue;
+            }
+            let mut round_best: Option<(f64, MountFile)> = None;
+            for sign in [1.0, -1.0] {
+                if evaluations >= max_evaluations {
+                    break 'search;
+                }
+                let mut candidate = best.clone();
+                (p.set)(&mut candidate, (p.get)(&best) + sign * step);
+                let c = cost(seq, &frames, gt, &candidate, method)?;
+                evaluations += 1;
+                progress(evaluations, c);
+                if c < round_best.as_ref().map_or(best_cost, |r| r.0) {
+                    round_best = Some((c, candidate));
+                }
+            }
+            if let Some((c, m)) = round_best {
+                best_cost = c;
+                best = m;
+                improved = true;
+            }
+        }
+        if !improved {
+            steps.iter_mut().for_each(|s| *s *= 0.5);
+        }
+    }
+    let changes = PARAMETERS
+        .iter()
+        .map(|p| (p.name, p.unit, (p.get)(start), (p.get)(&best)))
+        .collect();
+    Ok(Calibration {
+        mount: best,
+        cost_before,
+        cost_after: best_cost,
+        evaluations,
+        elapsed: began.elapsed(),
+        changes,
+    })
+}
