@@ -16,6 +16,14 @@ pub struct ImageSize {
     pub height_px: u16,
 }
 
+impl ImageSize {
+    /// No pixels: a placeholder (an empty image does not validate).
+    pub const ZERO: Self = Self {
+        width_px: 0,
+        height_px: 0,
+    };
+}
+
 /// Limits of how fast the driver can change the motion (paper §2.2).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -293,24 +301,9 @@ impl ValidConfig {
         };
         Self {
             config: Config {
-                image: ImageSize {
-                    width_px: 0,
-                    height_px: 0,
-                },
-                intrinsics: Intrinsics {
-                    fx_px: 0.0,
-                    fy_px: 0.0,
-                    cx_px: 0.0,
-                    cy_px: 0.0,
-                },
-                mount: Mount {
-                    x_m: 0.0,
-                    y_m: 0.0,
-                    height_m: 0.0,
-                    yaw_rad: 0.0,
-                    pitch_rad: 0.0,
-                    roll_rad: 0.0,
-                },
+                image: ImageSize::ZERO,
+                intrinsics: Intrinsics::ZERO,
+                mount: Mount::ZERO,
                 attitude_bounds: zero_attitude,
                 dynamics: Dynamics {
                     max_heading_accel_rad_s2: 0.0,

@@ -30,6 +30,14 @@ pub struct Intrinsics {
 }
 
 impl Intrinsics {
+    /// All zeros: a placeholder (a zero focal length does not validate).
+    pub const ZERO: Self = Self {
+        fx_px: 0.0,
+        fy_px: 0.0,
+        cx_px: 0.0,
+        cy_px: 0.0,
+    };
+
     /// Intrinsics from a KITTI `P0` projection matrix (3x4, row-major: `fx 0 cx tx; 0 fy cy ty;
     /// 0 0 1 0`). The fourth column (a stereo baseline, zero for camera 0) is ignored.
     pub fn from_kitti_p0(p: &[f32; 12]) -> Self {
@@ -127,6 +135,16 @@ fn rot_z(a: f64) -> Matrix3<f64> {
 }
 
 impl Mount {
+    /// All zeros: a placeholder (a camera on the road does not validate).
+    pub const ZERO: Self = Self {
+        x_m: 0.0,
+        y_m: 0.0,
+        height_m: 0.0,
+        yaw_rad: 0.0,
+        pitch_rad: 0.0,
+        roll_rad: 0.0,
+    };
+
     /// Rotation taking camera-frame vectors into the vehicle frame (its columns are the camera's
     /// right, down and forward axes in vehicle coordinates), with the body at `attitude`.
     pub fn rotation_vehicle_from_camera(&self, attitude: Attitude) -> Matrix3<f64> {

@@ -9,7 +9,7 @@ use roadvo_sim::eval::{Report, evaluate, evaluate_planar, format_report};
 use roadvo_sim::frame_store::pack;
 use roadvo_sim::kitti::Sequence;
 use roadvo_sim::kitti::{Pose, read_poses, write_poses};
-use roadvo_sim::mount::MethodName;
+use roadvo_sim::mount::{MethodName, MountFile};
 use roadvo_sim::plot::{Track, plot_trajectories};
 use roadvo_sim::run::{RunOutput, bench_sequence, mount_for, run_sequence};
 use roadvo_sim::scenario::{BUILT_IN, Scenario};
@@ -69,17 +69,11 @@ enum Command {
     },
     /// Run the odometer over a KITTI-layout sequence and write its trajectory.
     Run {
-        /// The sequence folder (holding image_0/, times.txt, calib.txt).
-        seq_dir: PathBuf,
+        #[command(flatten)]
+        seq: SequenceArgs,
         /// Where to write the estimated camera-0 poses (KITTI format).
         #[arg(long)]
         out: PathBuf,
-        /// Mount file (default: SEQ_DIR/mount.toml).
-        #[arg(long)]
-        mount: Option<PathBuf>,
-        /// Override the mount file's method.
-        #[arg(long, value_enum)]
-        method: Option<MethodName>,
         /// Write each frame's estimate and quality as JSON lines.
         #[arg(long)]
         quality: Option<PathBuf>,
@@ -94,8 +88,8 @@ enum Command {
     /// Refine the mount (pitch, yaw, roll, height, offset ahead of the rear axle) so that the
     /// odometry over a section with ground truth matches it.
     Calibrate {
-        /// The sequence folder.
-        seq_dir: PathBuf,
+        #[command(flatten)]
+        seq: SequenceArgs,
         /// Ground-truth poses of the sequence (KITTI format).
         #[arg(long)]
         gt: PathBuf,
@@ -106,43 +100,26 @@ enum Command {
         /// supplies it).
         #[arg(long)]
         out: PathBuf,
-        /// The starting mount (default: SEQ_DIR/mount.toml).
-        #[arg(long)]
-        mount: Option<PathBuf>,
-        /// Override the mount file's method.
-        #[arg(long, value_enum)]
-        method: Option<MethodName>,
         /// Most odometry runs over the section.
         #[arg(long, default_value_t = 150)]
         max_runs: usize,
     },
     /// Pack a sequence into the firmware example's frame store (the rows the odometer reads).
     Pack {
-        /// The sequence folder.
-        seq_dir: PathBuf,
+        #[command(flatten)]
+        seq: SequenceArgs,
         /// Where to write the store.
         #[arg(long)]
         out: PathBuf,
-        /// Mount file (default: SEQ_DIR/mount.toml).
-        #[arg(long)]
-        mount: Option<PathBuf>,
-        /// Override the mount file's method.
-        #[arg(long, value_enum)]
-        method: Option<MethodName>,
         /// Frames from the start of the sequence (default: all).
         #[arg(long)]
         frames: Option<usize>,
     },
     /// Time the odometry alone on a sequence: frames preloaded, one thread, both methods.
     Bench {
-        /// The sequence folder.
-        seq_dir: PathBuf,
-        /// Mount file (default: SEQ_DIR/mount.toml).
-        #[arg(long)]
-        mount: Option<PathBuf>,
-        /// Only this method (default: both).
-        #[arg(long, value_enum)]
-        method: Option<MethodName>,
+        /// The sequence and mount; with `--method` only that method (default: both).
+        #[command(flatten)]
+        seq: SequenceArgs,
         /// Frames from the start of the sequence.
         #[arg(long, default_value_t = 300)]
         frames: usize,
@@ -159,6 +136,28 @@ enum Command {
         #[arg(long, default_value_t = 1)]
         seed: u64,
     },
+}
+
+/// A KITTI-layout sequence and the mount to run it with.
+#[derive(clap::Args)]
+struct SequenceArgs {
+    /// The sequence folder (holding image_0/, times.txt, calib.txt).
+    seq_dir: PathBuf,
+    /// Mount file (default: SEQ_DIR/mount.toml); without [camera] it takes the sequence's.
+    #[arg(long)]
+    mount: Option<PathBuf>,
+    /// Override the mount file's method.
+    #[arg(long, value_enum)]
+    method: Option<MethodName>,
+}
+
+impl SequenceArgs {
+    /// Opens the sequence and reads its mount file.
+    fn open(&self) -> Result<(Sequence, MountFile)> {
+        let seq = Sequence::open(&self.seq_dir)?;
+        let mount = mount_for(&seq, self.mount.as_deref())?;
+        Ok((seq, mount))
+    }
 }
 
 fn render(scenario: &Scenario, out: &Path, seed: u64, frames: Option<usize>) -> Result<()> {
@@ -273,16 +272,14 @@ fn main() -> Result<()> {
             Ok(())
         }
         Command::Run {
-            seq_dir,
+            seq: args,
             out,
-            mount,
-            method,
             quality,
             plot,
             trace,
         } => {
-            let seq = Sequence::open(&seq_dir)?;
-            let mount = mount_for(&seq, mount.as_deref())?;
+            let (seq, mount) = args.open()?;
+            let (seq_dir, method) = (args.seq_dir, args.method);
             let run = run_sequence(
                 &seq,
                 &mount,
@@ -317,16 +314,14 @@ fn main() -> Result<()> {
             Ok(())
         }
         Command::Calibrate {
-            seq_dir,
+            seq: args,
             gt,
             frames,
             out,
-            mount,
-            method,
             max_runs,
         } => {
-            let seq = Sequence::open(&seq_dir)?;
-            let start = mount_for(&seq, mount.as_deref())?;
+            let (seq, start) = args.open()?;
+            let (seq_dir, method) = (args.seq_dir, args.method);
             let poses = read_poses(&gt)?;
             let section = frames.unwrap_or(0..seq.frames);
             let bar = ProgressBar::new(max_runs as u64).with_style(
@@ -372,15 +367,12 @@ fn main() -> Result<()> {
             Ok(())
         }
         Command::Pack {
-            seq_dir,
+            seq: args,
             out,
-            mount,
-            method,
             frames,
         } => {
-            let seq = Sequence::open(&seq_dir)?;
-            let mount = mount_for(&seq, mount.as_deref())?;
-            let packed = pack(&seq, &mount, method, frames, &out)?;
+            let (seq, mount) = args.open()?;
+            let packed = pack(&seq, &mount, args.method, frames, &out)?;
             println!(
                 "{} frames, rows {}..{} of each, {} bytes written to {}",
                 packed.frames,
@@ -392,15 +384,13 @@ fn main() -> Result<()> {
             Ok(())
         }
         Command::Bench {
-            seq_dir,
-            mount,
-            method,
+            seq: args,
             frames,
             repeats,
         } => {
-            let seq = Sequence::open(&seq_dir)?;
-            let mount = mount_for(&seq, mount.as_deref())?;
-            let methods = match method {
+            let (seq, mount) = args.open()?;
+            let seq_dir = args.seq_dir;
+            let methods = match args.method {
                 Some(m) => vec![m],
                 None => vec![MethodName::Default, MethodName::Paper],
             };

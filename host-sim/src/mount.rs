@@ -158,25 +158,7 @@ pub struct OdometerSection {
 impl Default for OdometerSection {
     /// The core's defaults ([`Config::with_defaults`]), in the file's units.
     fn default() -> Self {
-        let zero = Intrinsics {
-            fx_px: 0.0,
-            fy_px: 0.0,
-            cx_px: 0.0,
-            cy_px: 0.0,
-        };
-        let level = Mount {
-            x_m: 0.0,
-            y_m: 0.0,
-            height_m: 0.0,
-            yaw_rad: 0.0,
-            pitch_rad: 0.0,
-            roll_rad: 0.0,
-        };
-        let size = ImageSize {
-            width_px: 0,
-            height_px: 0,
-        };
-        let c = Config::with_defaults(size, zero, level);
+        let c = Config::with_defaults(ImageSize::ZERO, Intrinsics::ZERO, Mount::ZERO);
         let pv = &c.pitch_vote;
         Self {
             method: MethodName::Default,

@@ -16,20 +16,25 @@ fn roadvo(args: &[&str]) -> std::process::Output {
     out
 }
 
-#[test]
-fn simulate_then_eval_ground_truth_against_itself_prints_zeros() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().to_str().unwrap();
+/// Renders the first `frames` frames of `scenario` into `out`.
+fn simulate(scenario: &str, out: &Path, frames: usize) {
+    let frames = frames.to_string();
     roadvo(&[
         "simulate",
         "--scenario",
-        "s-course",
+        scenario,
         "--out",
-        out,
+        out.to_str().unwrap(),
         "--frames",
-        "45",
+        &frames,
     ]);
-    let gt = Path::new(out).join("poses/00.txt");
+}
+
+#[test]
+fn simulate_then_eval_ground_truth_against_itself_prints_zeros() {
+    let dir = tempfile::tempdir().unwrap();
+    simulate("s-course", dir.path(), 45);
+    let gt = dir.path().join("poses/00.txt");
     let plot = dir.path().join("plot.svg");
     let json = roadvo(&[
         "eval",
@@ -71,15 +76,7 @@ fn print_scenario_gives_toml_that_renders() {
         + "\n[[vehicle]]\nlateral_m = 0.0\nahead_m = 12.0\n";
     std::fs::write(&file, mine).unwrap();
     let seq = dir.path().join("run");
-    roadvo(&[
-        "simulate",
-        "--scenario",
-        file.to_str().unwrap(),
-        "--out",
-        seq.to_str().unwrap(),
-        "--frames",
-        "2",
-    ]);
+    simulate(file.to_str().unwrap(), &seq, 2);
     let img = image::open(seq.join("sequences/00/image_0/000001.png")).unwrap();
     assert_eq!((img.width(), img.height()), (620, 376));
 }
