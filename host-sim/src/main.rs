@@ -13,6 +13,7 @@ use roadvo_sim::mount::{MethodName, MountFile};
 use roadvo_sim::plot::{Track, plot_trajectories};
 use roadvo_sim::run::{RunOutput, bench_sequence, mount_for, run_sequence};
 use roadvo_sim::scenario::{BUILT_IN, Scenario};
+use roadvo_sim::sensitivity::{format_rows, sensitivity};
 use roadvo_sim::simulate::{poses_path, sequence_dir, simulate};
 use std::path::{Path, PathBuf};
 
@@ -126,6 +127,20 @@ enum Command {
         /// Times to run the frames.
         #[arg(long, default_value_t = 3)]
         repeats: usize,
+    },
+    /// The paper's sensitivity study on the s-course: +1 deg of roll, pitch, yaw and +10 cm of
+    /// each offset in the mount file, a kerb and crowned roads; both methods beside the paper.
+    Sensitivity {
+        /// Folder to render into (default: a temporary folder, removed afterwards); drives
+        /// already there are reused.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Seed of the texture and noise.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Render only the first N frames of each drive (default: the whole course).
+        #[arg(long)]
+        frames: Option<usize>,
     },
     /// Render the paper's s-course, run both methods, evaluate, and plot: the default demo.
     Demo {
@@ -410,6 +425,24 @@ fn main() -> Result<()> {
                     b.frames_per_s()
                 );
             }
+            Ok(())
+        }
+        Command::Sensitivity { out, seed, frames } => {
+            let tmp = tempfile::Builder::new()
+                .prefix("roadvo-sensitivity-")
+                .tempdir()?;
+            let out = out.unwrap_or_else(|| tmp.path().to_owned());
+            let bar = ProgressBar::new_spinner().with_style(
+                ProgressStyle::with_template("{spinner} {elapsed} {msg}").expect("valid template"),
+            );
+            bar.enable_steady_tick(std::time::Duration::from_millis(200));
+            let rows = sensitivity(&out, seed, frames, |what| bar.set_message(what.to_string()))?;
+            bar.finish_and_clear();
+            println!(
+                "s-course, seed {seed}: translation = path length error (positive: too long), \
+                 rotation = final heading error over the path length\n"
+            );
+            print!("{}", format_rows(&rows));
             Ok(())
         }
         Command::Demo { out, seed } => {

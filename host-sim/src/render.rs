@@ -334,6 +334,7 @@ pub struct Scene {
     noise_dn: f64,
     lane_width_m: f64,
     patch_probability: f64,
+    bare_half_width_m: f64,
     seed: u64,
 }
 
@@ -362,6 +363,7 @@ impl Scene {
             noise_dn: scenario.render.noise_dn,
             lane_width_m: scenario.render.lane_width_m,
             patch_probability: (0.6 * scenario.render.texture_density).min(1.0),
+            bare_half_width_m: scenario.render.bare_half_width_m,
             seed,
         }
     }
@@ -386,7 +388,9 @@ impl Scene {
         let mut g = 100.0
             + 16.0 * (value_noise(x / 2.5, y / 2.5, seed, 1) - 0.5)
             + 10.0 * (value_noise(x / 0.03, y / 0.03, seed, 2) - 0.5);
-        g += self.patch(x, y);
+        if l.abs() >= self.bare_half_width_m {
+            g += self.patch(x, y);
+        }
         g
     }
 

@@ -38,6 +38,8 @@
 //! supersample = 2            # samples per pixel along each axis
 //! noise_dn = 1.5             # sensor noise, standard deviation, grey levels
 //! lane_width_m = 3.5
+//! texture_density = 1.0      # texture patches, about four per square metre
+//! bare_half_width_m = 0.0    # no patches this close to our lane's centre
 //!
 //! [suspension]               # optional: body pitch and roll oscillation
 //! pitch_amplitude_deg = 0.5
@@ -85,6 +87,9 @@ pub struct RenderOptions {
     pub lane_width_m: f64,
     /// Scales how many texture patches the asphalt carries (1: about four per square metre).
     pub texture_density: f64,
+    /// No texture patches within this distance of our lane's centre, metres (the paper
+    /// appendix's worst case: features only at the road's edges). 0: patches everywhere.
+    pub bare_half_width_m: f64,
 }
 
 impl Default for RenderOptions {
@@ -94,6 +99,7 @@ impl Default for RenderOptions {
             noise_dn: 1.5,
             lane_width_m: 3.5,
             texture_density: 1.0,
+            bare_half_width_m: 0.0,
         }
     }
 }
@@ -328,8 +334,11 @@ impl Scenario {
         if self.render.supersample == 0 || self.render.supersample > 8 {
             bail!("render.supersample must be 1 to 8");
         }
-        if !(self.render.noise_dn >= 0.0 && self.render.texture_density >= 0.0) {
-            bail!("render.noise_dn and render.texture_density must be >= 0");
+        let r = &self.render;
+        if !(r.noise_dn >= 0.0 && r.texture_density >= 0.0 && r.bare_half_width_m >= 0.0) {
+            bail!(
+                "render.noise_dn, render.texture_density and render.bare_half_width_m must be >= 0"
+            );
         }
         check_speed_profile(&self.speed)?;
         for (i, v) in self.vehicles.iter().enumerate() {
