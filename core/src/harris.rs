@@ -159,16 +159,19 @@ fn parabola_peak(before: i32, at: i32, after: i32) -> I16F16 {
 /// part of the frame); the rest of a frame is never looked at.
 pub fn rows_read(cfg: &ValidConfig) -> core::ops::Range<u16> {
     let roi = cfg.roi();
-    let h = cfg.config().image.height_px;
-    if h <= 2 * BORDER {
-        return 0..0;
+    match inside_border(roi.top_px, roi.bottom_px, cfg.config().image.height_px) {
+        Some((top, bottom)) => top - BORDER..bottom + BORDER + 1,
+        None => 0..0,
     }
-    let top = roi.top_px.max(BORDER);
-    let bottom = roi.bottom_px.min(h - 1 - BORDER);
-    if top > bottom {
-        return 0..0;
+}
+
+/// `lo..=hi` clipped to the pixels at least `BORDER` inside `0..len`; `None` if nothing is left.
+fn inside_border(lo: u16, hi: u16, len: u16) -> Option<(u16, u16)> {
+    if len <= 2 * BORDER {
+        return None;
     }
-    top - BORDER..bottom + BORDER + 1
+    let (lo, hi) = (lo.max(BORDER), hi.min(len - 1 - BORDER));
+    (lo <= hi).then_some((lo, hi))
 }
 
 /// Finds the corners of `frame` inside the ground window of `cfg` into `out` (cleared first).
@@ -180,17 +183,11 @@ pub fn detect<F: Frame + ?Sized, const K: usize>(
 ) {
     out.clear();
     let roi = cfg.roi();
-    let (w, h) = (frame.width(), frame.height());
-    if w <= 2 * BORDER || h <= 2 * BORDER {
+    let rows = inside_border(roi.top_px, roi.bottom_px, frame.height());
+    let cols = inside_border(roi.left_px, roi.right_px, frame.width());
+    let (Some((top, bottom)), Some((left, right))) = (rows, cols) else {
         return;
-    }
-    let top = roi.top_px.max(BORDER);
-    let bottom = roi.bottom_px.min(h - 1 - BORDER);
-    let left = roi.left_px.max(BORDER);
-    let right = roi.right_px.min(w - 1 - BORDER);
-    if top > bottom || left > right {
-        return;
-    }
+    };
     let limit = usize::from(cfg.config().features_per_side);
     let threshold = i32::try_from(cfg.config().corner_threshold).unwrap_or(i32::MAX);
     let mut x0 = left;

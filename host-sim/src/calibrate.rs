@@ -104,12 +104,7 @@ fn cost(
     let Ok(config) = config_for(seq, mount, method) else {
         return Ok(f64::INFINITY);
     };
-    let mut est = Vec::with_capacity(frames.len());
-    frames.run(config, |e, _| {
-        let rows = config.lift().camera_pose(&e.pose).rows;
-        est.push(std::array::from_fn(|k| f64::from(rows[k / 4][k % 4])));
-    })?;
-    let report = evaluate(gt, &est)?;
+    let report = evaluate(gt, &frames.poses(config)?)?;
     match (report.short_t_err_pct, report.short_r_err_deg_per_m) {
         (Some(t), Some(r)) => Ok(t + 100.0 * r),
         _ => bail!("the section is too short: it needs at least 10 m of ground-truth path"),

@@ -85,10 +85,15 @@ pub struct Report {
     pub planar_floor: Option<(f64, f64)>,
 }
 
+/// The heading of a camera-0 pose about the vertical: the yaw of its optical axis, radians.
+pub fn heading_rad(p: &Pose) -> f64 {
+    p[2].atan2(p[10])
+}
+
 /// A camera-0 pose in the ground plane: its position in x-z (y, down, set to 0) and its heading
 /// about the vertical (the yaw of its optical axis), the first frame's camera taken as level.
 pub fn planar_pose(p: &Pose) -> Pose {
-    let yaw = p[2].atan2(p[10]);
+    let yaw = heading_rad(p);
     let (s, c) = yaw.sin_cos();
     [c, 0.0, s, p[3], 0.0, 1.0, 0.0, 0.0, -s, 0.0, c, p[11]]
 }

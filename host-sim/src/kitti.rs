@@ -11,6 +11,11 @@ use thiserror::Error;
 /// A 3x4 pose `[R | t]`, row-major.
 pub type Pose = [f64; 12];
 
+/// The pose of a camera pose from the core (a vehicle pose lifted through the mount).
+pub fn pose_of(camera: &roadvo::CameraPose) -> Pose {
+    std::array::from_fn(|k| f64::from(camera.rows[k / 4][k % 4]))
+}
+
 /// What went wrong reading or writing KITTI files.
 #[derive(Debug, Error)]
 pub enum KittiError {

@@ -2,7 +2,7 @@
 //! it, with the images decoded beforehand so that the odometry's own speed is measured apart.
 
 use crate::frame_store::{timestamp_us, trace_line};
-use crate::kitti::{Pose, Sequence};
+use crate::kitti::{Pose, Sequence, pose_of};
 use crate::mount::{CameraSection, MethodName, MountFile};
 use anyhow::{Context, Result, anyhow, bail};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -142,6 +142,16 @@ impl Preloaded {
         }
         Ok(())
     }
+
+    /// The camera-0 trajectory of a fresh odometer with `config` over the frames (KITTI poses
+    /// through the mount).
+    pub fn poses(&self, config: ValidConfig) -> Result<Vec<Pose>> {
+        let mut poses = Vec::with_capacity(self.len());
+        self.run(config, |e, _| {
+            poses.push(pose_of(&config.lift().camera_pose(&e.pose)))
+        })?;
+        Ok(poses)
+    }
 }
 
 /// Times `process()` alone: every frame decoded first, then the whole sequence run `repeats`
@@ -251,8 +261,7 @@ pub fn run_sequence(
             .process(&frame, t_us)
             .with_context(|| format!("frame {i:06}"))?;
         odometry += t1.elapsed();
-        let rows = odo.config().lift().camera_pose(&est.pose).rows;
-        poses.push(std::array::from_fn(|k| f64::from(rows[k / 4][k % 4])));
+        poses.push(pose_of(&odo.config().lift().camera_pose(&est.pose)));
         if let Some(out) = quality_out.as_mut() {
             let q = &est.quality;
             let line = QualityLine {

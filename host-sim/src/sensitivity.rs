@@ -16,10 +16,10 @@
 //! Both are measured on the camera's planar motion (KITTI poses through the mount), so they
 //! need no alignment of the trajectories.
 
-use crate::eval::evaluate;
+use crate::eval::{evaluate, heading_rad};
 use crate::kitti::{Pose, Sequence, read_poses};
 use crate::mount::{MethodName, MountFile};
-use crate::run::{mount_for, run_sequence};
+use crate::run::{Preloaded, config_for, mount_for};
 use crate::scenario::{Crown, Kerb, Scenario};
 use crate::simulate::{poses_path, sequence_dir, simulate};
 use anyhow::Result;
@@ -41,6 +41,16 @@ struct Case {
     departure: Departure,
     /// The paper's (translation %, rotation deg/m), where it gives them.
     paper: (Option<f64>, Option<f64>),
+}
+
+impl Case {
+    /// The folder of the case's drive, and how its scenario departs from the s-course.
+    fn drive(&self) -> (&'static str, Option<fn(&mut Scenario)>) {
+        match self.departure {
+            Departure::Road(folder, change) => (folder, Some(change)),
+            _ => ("flat", None),
+        }
+    }
 }
 
 /// The appendix's worst case: features only at the road's edges, none within 2 m of the centre.
@@ -150,11 +160,11 @@ pub struct Row {
 /// Planar camera motion of a KITTI trajectory: (path length, sum of heading changes in
 /// degrees), heading about the camera's vertical.
 fn path_and_turn(poses: &[Pose]) -> (f64, f64) {
-    let yaw = |p: &Pose| p[2].atan2(p[10]);
     poses.windows(2).fold((0.0, 0.0), |(len, turn), w| {
         let (a, b) = (&w[0], &w[1]);
         let step = (b[3] - a[3]).hypot(b[11] - a[11]);
-        let d = (yaw(b) - yaw(a) + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+        let d = (heading_rad(b) - heading_rad(a) + std::f64::consts::PI)
+            .rem_euclid(std::f64::consts::TAU)
             - std::f64::consts::PI;
         (len + step, turn + d.to_degrees())
     })
@@ -179,11 +189,9 @@ pub fn sensitivity(
     mut progress: impl FnMut(&str),
 ) -> Result<Vec<Row>> {
     let mut rows = Vec::new();
-    for case in cases() {
-        let (folder, change) = match &case.departure {
-            Departure::Road(folder, change) => (*folder, Some(*change)),
-            _ => ("flat", None),
-        };
+    // Cases that share a drive come together: each drive is rendered and decoded once.
+    for group in cases().chunk_by(|a, b| a.drive().0 == b.drive().0) {
+        let (folder, change) = group[0].drive();
         let dir = out.join(folder);
         if !poses_path(&dir).exists() {
             progress(&format!("rendering the s-course ({folder})"));
@@ -195,23 +203,26 @@ pub fn sensitivity(
         }
         let seq = Sequence::open(&sequence_dir(&dir))?;
         let truth = read_poses(&poses_path(&dir))?;
-        let mut mount = mount_for(&seq, None)?;
-        if let Departure::Mount(change) = &case.departure {
-            change(&mut mount);
-        }
-        for method in [MethodName::Default, MethodName::Paper] {
-            progress(&format!("{} ({method:?})", case.name));
-            let run = run_sequence(&seq, &mount, Some(method), None, None, false)?;
-            let (t, r) = errors(&truth, &run.poses);
-            rows.push(Row {
-                case: case.name,
-                method,
-                translation_pct: t,
-                rotation_deg_per_m: r,
-                end_drift_pct: evaluate(&truth, &run.poses)?.end_drift_pct,
-                paper_translation_pct: case.paper.0,
-                paper_rotation_deg_per_m: case.paper.1,
-            });
+        let frames = Preloaded::load(&seq, 0..seq.frames)?;
+        for case in group {
+            let mut mount = mount_for(&seq, None)?;
+            if let Departure::Mount(change) = &case.departure {
+                change(&mut mount);
+            }
+            for method in [MethodName::Default, MethodName::Paper] {
+                progress(&format!("{} ({method:?})", case.name));
+                let est = frames.poses(config_for(&seq, &mount, Some(method))?)?;
+                let (t, r) = errors(&truth, &est);
+                rows.push(Row {
+                    case: case.name,
+                    method,
+                    translation_pct: t,
+                    rotation_deg_per_m: r,
+                    end_drift_pct: evaluate(&truth, &est)?.end_drift_pct,
+                    paper_translation_pct: case.paper.0,
+                    paper_rotation_deg_per_m: case.paper.1,
+                });
+            }
         }
     }
     Ok(rows)

@@ -173,8 +173,7 @@ pub fn simulate(
                 y_m: rel.y_m as f32,
                 heading_rad: roadvo::motion::wrap_angle_rad(rel.heading_rad as f32),
             };
-            let rows = truth.lift().camera_pose(&planar).rows;
-            std::array::from_fn(|k| f64::from(rows[k / 4][k % 4]))
+            kitti::pose_of(&truth.lift().camera_pose(&planar))
         })
         .collect();
     kitti::write_poses(&poses_path(out), &poses)?;
