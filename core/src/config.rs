@@ -3,7 +3,9 @@
 //! interest), so that no invalid setting and no per-config computation reaches the per-frame path.
 
 use crate::motion::CameraLift;
-use crate::projection::{Attitude, GroundPoint, GroundProjection, Homography, Intrinsics, Mount};
+use crate::projection::{
+    Attitude, GroundPoint, GroundProjection, Homography, Intrinsics, Mount, RollMap,
+};
 use core::fmt;
 
 /// Size of the camera's frames, pixels.
@@ -85,7 +87,29 @@ pub struct PitchVoteSettings {
     pub distance_half_m: f32,
     /// Largest lateral residual of a track and an observation that still votes, metres (4 cm).
     pub lateral_tolerance_m: f32,
-    /// Heading window half width with no previous motion, radians (2 deg).
+    /// Standard deviation of a corner's row, pixels (0.5; 0: one bin a pair). A pair votes for
+    /// the distances its two corners' rows allow: a tent two standard deviations wide each side
+    /// (a row is 12 cm of range at KITTI's 12 m), not one bin, which would ask far corners for a
+    /// precision they lack.
+    pub corner_sigma_px: f32,
+    /// Body roll hypotheses span +- this, radians (1.4 deg: a swing of +-1 deg and a margin;
+    /// +-2 deg let the estimate wander further, measured on the kitti-like drives).
+    pub roll_range_rad: f32,
+    /// Number of roll hypotheses, odd so that level is one of them (15: 0.2 deg steps); at most
+    /// [`MAX_ROLL_HYPOTHESES`]. 1 turns the roll search off.
+    pub roll_steps: u8,
+    /// Largest change of body roll between two frames, in roll steps (3: 0.6 deg; a +-1 deg
+    /// roll at 1.2 Hz changes by up to 0.75 deg in 0.1 s).
+    pub max_roll_change_steps: u8,
+    /// Share of each frame's measured common pitch error (the slope of matched distances
+    /// against range, see [`crate::pitch_vote`]) that moves both frames' pitch (0.2).
+    pub absolute_gain: f32,
+    /// Time constant with which the body pitch and roll estimates return to level, seconds
+    /// (0.5; 0: never). The body's attitude on its suspension is a damped oscillation about
+    /// level with a period near a second; an offset that lasts longer is the estimate's drift.
+    pub pitch_settle_s: f32,
+    /// Heading window half width with no previous motion, radians (4 deg: 40 deg/s at 10 frames/s;
+    /// KITTI 01 starts in a bend at 2.5 deg a frame).
     pub startup_heading_half_rad: f32,
     /// Distance window upper end with no previous motion, metres per frame (2.6 m: 94 km/h at
     /// 10 frames/s); the lower end is 0.
@@ -94,7 +118,8 @@ pub struct PitchVoteSettings {
 
 impl Default for PitchVoteSettings {
     /// BRIEF §7's prototype (21 pitches over +-1 deg, a +-1 deg window, 4 cm), with a narrower
-    /// distance window (see `distance_half_m`).
+    /// distance window (see `distance_half_m`), distance tents for 0.5 px corners and a pitch
+    /// that settles to level in 0.5 s (see [`crate::pitch_vote`]).
     fn default() -> Self {
         const DEG: f32 = core::f32::consts::PI / 180.0;
         Self {
@@ -104,7 +129,13 @@ impl Default for PitchVoteSettings {
             heading_half_rad: 1.0 * DEG,
             distance_half_m: 0.15,
             lateral_tolerance_m: 0.04,
-            startup_heading_half_rad: 2.0 * DEG,
+            corner_sigma_px: 0.5,
+            roll_range_rad: 1.4 * DEG,
+            roll_steps: 15,
+            max_roll_change_steps: 3,
+            absolute_gain: 0.2,
+            pitch_settle_s: 0.5,
+            startup_heading_half_rad: 4.0 * DEG,
             startup_distance_max_m: 2.6,
         }
     }
@@ -112,6 +143,8 @@ impl Default for PitchVoteSettings {
 
 /// Most pitch hypotheses the default method may use.
 pub const MAX_PITCH_HYPOTHESES: usize = 31;
+/// Most roll hypotheses the default method may use.
+pub const MAX_ROLL_HYPOTHESES: usize = 15;
 
 /// Everything the odometer needs to know, in physical units. Build one, then
 /// [`validate`](Config::validate) it.
@@ -241,7 +274,7 @@ impl fmt::Display for ConfigError {
             Self::PitchVoteOutOfRange { field } => write!(
                 f,
                 "{field} is out of range (pitch_steps odd, 1 to {MAX_PITCH_HYPOTHESES}; \
-                 angles and distances positive)"
+                 roll_steps odd, 1 to {MAX_ROLL_HYPOTHESES}; angles and distances positive)"
             ),
             Self::RatioOutOfRange { field } => write!(f, "{field} must be between 0 and 1"),
             Self::ExceedsCapacity { field } => {
@@ -271,11 +304,22 @@ pub struct ImageRoi {
 /// Body pitch of hypothesis `i` of the default method's vote, radians: evenly spaced over
 /// +-`pitch_range_rad`, level in the middle.
 pub fn pitch_hypothesis_rad(pv: &PitchVoteSettings, i: usize) -> f32 {
-    let half = (usize::from(pv.pitch_steps) / 2) as f32;
+    hypothesis_rad(pv.pitch_range_rad, pv.pitch_steps, i)
+}
+
+/// Body roll of hypothesis `i` of the default method's vote, radians: evenly spaced over
+/// +-`roll_range_rad`, level in the middle.
+pub fn roll_hypothesis_rad(pv: &PitchVoteSettings, i: usize) -> f32 {
+    hypothesis_rad(pv.roll_range_rad, pv.roll_steps, i)
+}
+
+/// Angle of hypothesis `i` of `steps` spread evenly over +-`range_rad`.
+fn hypothesis_rad(range_rad: f32, steps: u8, i: usize) -> f32 {
+    let half = (usize::from(steps) / 2) as f32;
     if half == 0.0 {
         0.0
     } else {
-        pv.pitch_range_rad * (i as f32 - half) / half
+        range_rad * (i as f32 - half) / half
     }
 }
 
@@ -286,6 +330,7 @@ pub struct ValidConfig {
     projection: GroundProjection,
     /// Homographies of the default method's pitch hypotheses (the first `pitch_steps` are set).
     pitch_fan: [Homography; MAX_PITCH_HYPOTHESES],
+    roll_fan: [RollMap; MAX_ROLL_HYPOTHESES],
     lift: CameraLift,
     roi: ImageRoi,
 }
@@ -324,6 +369,12 @@ impl ValidConfig {
                     heading_half_rad: 0.0,
                     distance_half_m: 0.0,
                     lateral_tolerance_m: 0.0,
+                    corner_sigma_px: 0.0,
+                    roll_range_rad: 0.0,
+                    roll_steps: 0,
+                    max_roll_change_steps: 0,
+                    absolute_gain: 0.0,
+                    pitch_settle_s: 0.0,
                     startup_heading_half_rad: 0.0,
                     startup_distance_max_m: 0.0,
                 },
@@ -335,6 +386,7 @@ impl ValidConfig {
                 extremes: [Homography::ZERO; 4],
             },
             pitch_fan: [Homography::ZERO; MAX_PITCH_HYPOTHESES],
+            roll_fan: [RollMap::ZERO; MAX_ROLL_HYPOTHESES],
             lift: CameraLift::ZERO,
             roi: ImageRoi {
                 left_px: 0,
@@ -365,6 +417,14 @@ impl ValidConfig {
         // Validation bounds the steps; `min` shows the compiler the slice cannot fail.
         let n = usize::from(self.config.pitch_vote.pitch_steps).min(MAX_PITCH_HYPOTHESES);
         &self.pitch_fan[..n]
+    }
+
+    /// The image maps of the default method's roll hypotheses, in order of roll (see
+    /// [`RollMap`]).
+    pub fn roll_fan(&self) -> &[RollMap] {
+        // Validation bounds the steps; `min` shows the compiler the slice cannot fail.
+        let n = usize::from(self.config.pitch_vote.roll_steps).min(MAX_ROLL_HYPOTHESES);
+        &self.roll_fan[..n]
     }
 
     /// Lifts planar poses to KITTI camera poses through the mount.
@@ -513,10 +573,16 @@ impl Config {
             };
             *h = Homography::new(k, m, attitude).ok_or(ConfigError::DegenerateGeometry)?;
         }
+        let mut roll_fan = [RollMap::ZERO; MAX_ROLL_HYPOTHESES];
+        for (i, map) in roll_fan.iter_mut().enumerate().take(pv.roll_steps.into()) {
+            let roll_rad = hypothesis_rad(pv.roll_range_rad, pv.roll_steps, i);
+            *map = RollMap::new(k, m, roll_rad).ok_or(ConfigError::DegenerateGeometry)?;
+        }
         let mut valid = ValidConfig {
             config: self,
             projection,
             pitch_fan,
+            roll_fan,
             lift: CameraLift::new(m),
             roi: ImageRoi {
                 left_px: 0,
@@ -540,6 +606,13 @@ impl Config {
         if steps == 0 || steps % 2 == 0 || steps > MAX_PITCH_HYPOTHESES {
             return bad("pitch_vote.pitch_steps");
         }
+        let roll_steps = usize::from(pv.roll_steps);
+        if roll_steps == 0 || roll_steps % 2 == 0 || roll_steps > MAX_ROLL_HYPOTHESES {
+            return bad("pitch_vote.roll_steps");
+        }
+        if !(0.0..=MAX_ATTITUDE_BOUND_RAD).contains(&pv.roll_range_rad) {
+            return bad("pitch_vote.roll_range_rad");
+        }
         if !(0.0..=MAX_ATTITUDE_BOUND_RAD).contains(&pv.pitch_range_rad) {
             return bad("pitch_vote.pitch_range_rad");
         }
@@ -556,7 +629,15 @@ impl Config {
                 "pitch_vote.startup_distance_max_m",
             ),
         ];
-        match positive.iter().find(|(v, _)| *v <= 0.0) {
+        if let Some(&(_, field)) = positive.iter().find(|(v, _)| *v <= 0.0) {
+            return bad(field);
+        }
+        let not_negative = [
+            (pv.corner_sigma_px, "pitch_vote.corner_sigma_px"),
+            (pv.absolute_gain, "pitch_vote.absolute_gain"),
+            (pv.pitch_settle_s, "pitch_vote.pitch_settle_s"),
+        ];
+        match not_negative.iter().find(|(v, _)| *v < 0.0) {
             Some(&(_, field)) => bad(field),
             None => Ok(()),
         }
@@ -610,6 +691,13 @@ impl Config {
                 self.pitch_vote.lateral_tolerance_m,
                 "pitch_vote.lateral_tolerance_m",
             ),
+            (
+                self.pitch_vote.corner_sigma_px,
+                "pitch_vote.corner_sigma_px",
+            ),
+            (self.pitch_vote.roll_range_rad, "pitch_vote.roll_range_rad"),
+            (self.pitch_vote.absolute_gain, "pitch_vote.absolute_gain"),
+            (self.pitch_vote.pitch_settle_s, "pitch_vote.pitch_settle_s"),
             (
                 self.pitch_vote.startup_heading_half_rad,
                 "pitch_vote.startup_heading_half_rad",
@@ -836,6 +924,24 @@ pub(crate) mod tests {
             &|c| c.pitch_vote.lateral_tolerance_m = 0.0,
             ConfigError::PitchVoteOutOfRange {
                 field: "pitch_vote.lateral_tolerance_m",
+            },
+        );
+        check(
+            &|c| c.pitch_vote.roll_steps = 16,
+            ConfigError::PitchVoteOutOfRange {
+                field: "pitch_vote.roll_steps",
+            },
+        );
+        check(
+            &|c| c.pitch_vote.corner_sigma_px = -0.5,
+            ConfigError::PitchVoteOutOfRange {
+                field: "pitch_vote.corner_sigma_px",
+            },
+        );
+        check(
+            &|c| c.pitch_vote.pitch_settle_s = f32::NAN,
+            ConfigError::NonFinite {
+                field: "pitch_vote.pitch_settle_s",
             },
         );
         check(

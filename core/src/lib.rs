@@ -74,5 +74,5 @@ pub use harris::{Corner, Corners, HarrisScratch};
 pub use motion::{CameraLift, CameraPose, Motion, Pose2};
 pub use odometer::{Estimate, FrameError, Odometer, Quality};
 pub use projection::{
-    Attitude, GroundPoint, GroundProjection, Homography, Intrinsics, Mount, Pixel, Quad,
+    Attitude, GroundPoint, GroundProjection, Homography, Intrinsics, Mount, Pixel, Quad, RollMap,
 };

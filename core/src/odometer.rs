@@ -1,12 +1,12 @@
 //! The per-frame flow: [`Odometer::process`] reads top-down as the method's steps.
 
-use crate::config::{Method, ValidConfig, pitch_hypothesis_rad};
+use crate::config::{Method, ValidConfig, pitch_hypothesis_rad, roll_hypothesis_rad};
 use crate::frame::Frame;
 use crate::harris::{self, Corners, HarrisScratch};
 use crate::motion::{Motion, Pose2};
 use crate::paper::PaperScratch;
-use crate::pitch_vote::{ABSOLUTE_GAIN, PitchVoteScratch};
-use crate::projection::Homography;
+use crate::pitch_vote::{AttitudeDrift, AttitudeIndex, PitchVoteScratch};
+use crate::projection::{Homography, RollMap};
 use crate::tracks::{Observation, Spawn, Tracks};
 use crate::vote::MotionWindow;
 use core::fmt;
@@ -78,6 +78,8 @@ pub struct Quality {
     pub vote_peak: u32,
     /// The body pitch the default method settled on, radians (0 for the paper's method).
     pub pitch_rad: f32,
+    /// The body roll the default method settled on, radians (0 for the paper's method).
+    pub roll_rad: f32,
     /// Observations that found no room in the full track pool.
     pub tracks_refused: u16,
 }
@@ -105,10 +107,10 @@ struct State {
     pose: Pose2,
     /// Window doublings in force after fallbacks.
     widen: u8,
-    /// Pitch hypothesis of the last frame.
-    pitch_index: usize,
-    /// The default method's absolute-pitch integrator, steps.
-    pitch_integrator: f32,
+    /// Attitude hypothesis of the last frame.
+    attitude: AttitudeIndex,
+    /// The default method's attitude corrections waiting to be applied.
+    drift: AttitudeDrift,
 }
 
 /// The odometer: every bit of state, sized by its parameters.
@@ -140,7 +142,7 @@ impl State {
     /// Before the first frame, the body assumed level.
     fn start(config: &ValidConfig) -> Self {
         Self {
-            pitch_index: level_pitch_index(config),
+            attitude: AttitudeIndex::level(config),
             ..Self::ZERO
         }
     }
@@ -152,8 +154,11 @@ impl State {
         motion: None,
         pose: Pose2::IDENTITY,
         widen: 0,
-        pitch_index: 0,
-        pitch_integrator: 0.0,
+        attitude: AttitudeIndex { pitch: 0, roll: 0 },
+        drift: AttitudeDrift {
+            pitch_steps: 0.0,
+            roll_steps: 0.0,
+        },
     };
 }
 
@@ -249,12 +254,13 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
         // 3. Predict the window of plausible motions, vote, match (default or paper method).
         let prediction = self.predicted_motion(interval_us);
         let voted = match self.config.config().method {
-            Method::PitchVote => self.vote_pitch(prediction),
+            Method::PitchVote => self.vote_pitch(prediction, interval_us),
             Method::Paper => self.vote_paper(prediction, interval_us),
         };
         quality.tracks_matched = voted.matched as u16;
         quality.vote_peak = voted.peak;
         quality.pitch_rad = voted.pitch_rad;
+        quality.roll_rad = voted.roll_rad;
         quality.inlier_ratio = if detected == 0 {
             0.0
         } else {
@@ -331,28 +337,32 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
         })
     }
 
-    /// The homography of the last frame's pitch hypothesis (nominal for the paper's method,
-    /// whose index stays level).
-    fn pitch_homography(&self) -> Homography {
-        let fan = self.config.pitch_fan();
-        fan.get(self.state.pitch_index)
-            .copied()
-            .unwrap_or(self.config.projection().nominal)
+    /// How the last frame was seen: its attitude hypothesis's homography and roll map (the
+    /// nominal attitude for the paper's method, whose hypotheses stay level).
+    fn seen(&self) -> (Homography, RollMap) {
+        let at = self.state.attitude;
+        let h = self.config.pitch_fan().get(at.pitch).copied();
+        let roll = self.config.roll_fan().get(at.roll).copied();
+        (
+            h.unwrap_or(self.config.projection().nominal),
+            roll.unwrap_or(RollMap::IDENTITY),
+        )
     }
 
     /// Makes tracks of every corner (nominal attitude); returns the refused ones.
     fn start_tracks(&mut self) -> u16 {
-        let h = self.pitch_homography();
+        let (h, roll) = self.seen();
         let seen = self.corners.iter().filter_map(|c| {
             let pixel = c.pixel();
-            h.backproject(pixel)
+            roll.apply(pixel)
+                .and_then(|level| h.backproject(level))
                 .map(|ground| Observation { ground, pixel })
         });
         spawn_all(&mut self.tracks, seen)
     }
 
     /// The default method (see [`crate::pitch_vote`]).
-    fn vote_pitch(&mut self, prediction: Option<Motion>) -> Voted {
+    fn vote_pitch(&mut self, prediction: Option<Motion>, interval_us: u64) -> Voted {
         let cfg = self.config.config();
         let pv = &cfg.pitch_vote;
         let startup = MotionWindow {
@@ -380,18 +390,19 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
             self.tracks.as_slice(),
             &self.corners,
             &window,
-            self.state.pitch_index,
-            &mut self.state.pitch_integrator,
+            self.state.attitude,
+            &mut self.state.drift,
+            prediction.is_some(),
         );
         let Some(outcome) = outcome else {
-            // No pair voted: every observation (at the previous pitch) starts a track.
-            let h = self.pitch_homography();
-            self.pitch_vote.observe(&self.corners, &h);
+            // No pair voted: every observation (at the previous attitude) starts a track.
+            let (h, roll) = self.seen();
+            self.pitch_vote.observe(&self.corners, (&h, &roll));
             self.pitch_vote.forget_matches();
             slots(&mut self.observed, self.tracks.len()).fill(None);
             return Voted::default();
         };
-        self.state.pitch_index = outcome.pitch_index;
+        self.state.attitude = outcome.attitude;
         // Along the chord a match may be off by the bins the centre of gravity spans.
         let along = 2.0 * window.distance_step_m(GRID) + pv.lateral_tolerance_m;
         let matched = self.pitch_vote.match_tracks(
@@ -408,13 +419,23 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
         if let Some(e) = self.pitch_vote.common_pitch_error_rad(cfg.mount.height_m)
             && step_rad > 0.0
         {
-            self.state.pitch_integrator += ABSOLUTE_GAIN * e / step_rad;
+            self.state.drift.pitch_steps += pv.absolute_gain * e / step_rad;
+        }
+        // Offsets from level that outlast the suspension's swing are the estimate's drift.
+        if pv.pitch_settle_s > 0.0 {
+            let level = AttitudeIndex::level(&self.config);
+            let off = |at: usize, level: usize| at as f32 - level as f32;
+            let share = (interval_us as f32 * 1e-6 / pv.pitch_settle_s).min(1.0);
+            let d = &mut self.state.drift;
+            d.pitch_steps -= share * off(outcome.attitude.pitch, level.pitch);
+            d.roll_steps -= share * off(outcome.attitude.roll, level.roll);
         }
         Voted {
             motion: Some(outcome.motion),
             matched,
             peak: outcome.peak.score,
-            pitch_rad: pitch_hypothesis_rad(pv, outcome.pitch_index),
+            pitch_rad: pitch_hypothesis_rad(pv, outcome.attitude.pitch),
+            roll_rad: roll_hypothesis_rad(pv, outcome.attitude.roll),
         }
     }
 
@@ -433,6 +454,7 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
             matched: outcome.matched,
             peak: outcome.peak,
             pitch_rad: 0.0,
+            roll_rad: 0.0,
         }
     }
 
@@ -455,11 +477,6 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
             Method::Paper => spawn_all(&mut self.tracks, self.paper.unmatched()),
         }
     }
-}
-
-/// The pitch hypothesis of a level body: the middle one.
-fn level_pitch_index(config: &ValidConfig) -> usize {
-    usize::from(config.config().pitch_vote.pitch_steps / 2)
 }
 
 /// The first `n` of the per-track observation slots: one per track held (`n` never exceeds
@@ -493,6 +510,7 @@ struct Voted {
     matched: usize,
     peak: u32,
     pitch_rad: f32,
+    roll_rad: f32,
 }
 
 #[cfg(test)]

@@ -15,8 +15,9 @@
 //! 5. **Estimate.** The centre of gravity of the bins holding at least 70% of the highest count.
 //!
 //! Open points the paper leaves, decided here:
-//! - *Start-up*: with no previous motion the patch is the default method's start-up window
-//!   (heading +-2 deg, distance 0 to 2.6 m per frame).
+//! - *Start-up*: with no previous motion the patch is heading +-2 deg and distance 0 to 2.6 m per
+//!   frame (BRIEF §7's start-up window; its own constants, so that tuning the default method's
+//!   start-up leaves this method's results as they were).
 //! - *Several overlapping observations*: a matched track takes the centroid of the overlapping
 //!   observation region whose centroid lies nearest its prediction under the estimate.
 //! - *Grid*: the odometer's `GRID` (64): finer than the paper's noise, so the bins do not limit it.
@@ -28,6 +29,11 @@ use crate::projection::{GroundPoint, Pixel, Quad};
 use crate::tracks::{Observation, Track};
 use crate::vote::{MotionWindow, VoteGrid};
 use heapless::Vec;
+
+/// Start-up heading window half width, radians (2 deg).
+const STARTUP_HEADING_HALF_RAD: f32 = 2.0 * (core::f32::consts::PI / 180.0);
+/// Start-up distance window upper end, metres per frame.
+const STARTUP_DISTANCE_MAX_M: f32 = 2.6;
 
 /// Most patch doublings while too few tracks match.
 const MAX_WIDEN: u8 = 4;
@@ -117,14 +123,13 @@ impl<const F: usize, const GRID: usize> PaperScratch<F, GRID> {
             }
         }
         let c = cfg.config();
-        let pv = &c.pitch_vote;
         let needed = c.min_inlier_ratio * corners.len() as f32;
         let mut window = match prediction {
             None => MotionWindow {
-                heading_lo_rad: -pv.startup_heading_half_rad,
-                heading_hi_rad: pv.startup_heading_half_rad,
+                heading_lo_rad: -STARTUP_HEADING_HALF_RAD,
+                heading_hi_rad: STARTUP_HEADING_HALF_RAD,
                 distance_lo_m: 0.0,
-                distance_hi_m: pv.startup_distance_max_m,
+                distance_hi_m: STARTUP_DISTANCE_MAX_M,
             },
             // The change limits over this frame's interval.
             Some(m) => {

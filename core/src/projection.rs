@@ -234,6 +234,59 @@ impl Homography {
     }
 }
 
+/// Where a pixel seen with the body rolled would lie had the body been level in roll, at any
+/// pitch. The body's attitude turns the camera about its centre, so the map is the image
+/// rotation `K Q K^-1` with `Q` the roll seen in camera axes; and since the body rolls before it
+/// pitches, `Q` does not depend on the pitch: one map per roll serves every pitch hypothesis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RollMap {
+    rolled_to_level: Matrix3<f32>,
+}
+
+impl RollMap {
+    /// No map: the placeholder of an unconfigured odometer.
+    pub(crate) const ZERO: Self = Self {
+        rolled_to_level: Matrix3::from_array_storage(ArrayStorage([[0.0; 3]; 3])),
+    };
+
+    /// No roll: every pixel maps to itself.
+    pub const IDENTITY: Self = Self {
+        rolled_to_level: Matrix3::from_array_storage(ArrayStorage([
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+        ])),
+    };
+
+    /// The map for a body rolled by `roll_rad` (positive: left side up).
+    pub fn new(intrinsics: &Intrinsics, mount: &Mount, roll_rad: f32) -> Option<Self> {
+        if roll_rad == 0.0 {
+            // Exactly: a level body's pixels go through untouched, not through K K^-1's
+            // rounding (which would also change the paper method's results, and it has no roll).
+            return Some(Self::IDENTITY);
+        }
+        let level = mount.rotation_vehicle_from_camera(Attitude::default());
+        let rolled = mount.rotation_vehicle_from_camera(Attitude {
+            pitch_rad: 0.0,
+            roll_rad,
+        });
+        let k = intrinsics.matrix();
+        let m = k * level.transpose() * rolled * k.try_inverse()?;
+        m.iter().all(|x| x.is_finite()).then(|| Self {
+            rolled_to_level: m.cast::<f32>(),
+        })
+    }
+
+    /// The pixel a level body would have seen; `None` if it lies on the horizon of the turn.
+    pub fn apply(&self, px: Pixel) -> Option<Pixel> {
+        let q = self.rolled_to_level * Vector3::new(px.u_px, px.v_px, 1.0);
+        (q.z.abs() > f32::EPSILON).then(|| Pixel {
+            u_px: q.x / q.z,
+            v_px: q.y / q.z,
+        })
+    }
+}
+
 /// A convex quadrilateral on the ground in the vehicle frame: where a corner may lie given the
 /// body attitude bounds (paper §2.1, the observation uncertainty region).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -476,6 +529,25 @@ mod tests {
     }
 
     proptest! {
+        #[test]
+        fn a_roll_map_then_the_level_homography_is_the_rolled_homography(
+            pitch in -2.0f32..2.0,
+            body_pitch in -1.0f32..1.0,
+            body_roll in -2.0f32..2.0,
+            x in 6.0f32..14.0,
+            y in -3.0f32..3.0,
+        ) {
+            let (k, mut m) = kitti();
+            m.pitch_rad = pitch * DEG;
+            let rolled = Attitude { pitch_rad: body_pitch * DEG, roll_rad: body_roll * DEG };
+            let level = Attitude { pitch_rad: body_pitch * DEG, roll_rad: 0.0 };
+            let p = GroundPoint { x_m: x, y_m: y };
+            let px = Homography::new(&k, &m, rolled).unwrap().project(p).unwrap();
+            let map = RollMap::new(&k, &m, body_roll * DEG).unwrap();
+            let back = Homography::new(&k, &m, level).unwrap().backproject(map.apply(px).unwrap()).unwrap();
+            prop_assert!((back.x_m - x).abs() < 2e-3 && (back.y_m - y).abs() < 2e-3, "{back:?}");
+        }
+
         #[test]
         fn backprojection_inverts_projection(
             x in 2.5f32..13.0, y in -3.0f32..3.0,

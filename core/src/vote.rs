@@ -48,6 +48,15 @@ impl MotionWindow {
             .then(|| ((f * grid as f32) as usize).min(grid - 1))
     }
 
+    /// The distance bin holding `distance_m`, the nearest end bin if outside the window by
+    /// less than a window's length; `None` if farther or NaN.
+    pub fn distance_bin_clamped(&self, distance_m: f32, grid: usize) -> Option<usize> {
+        let f = (distance_m - self.distance_lo_m) / (self.distance_hi_m - self.distance_lo_m);
+        (-1.0..2.0)
+            .contains(&f)
+            .then(|| ((f.max(0.0) * grid as f32) as usize).min(grid - 1))
+    }
+
     /// Distance bin width, metres.
     pub fn distance_step_m(&self, grid: usize) -> f32 {
         (self.distance_hi_m - self.distance_lo_m) / grid as f32
@@ -78,6 +87,57 @@ impl<const GRID: usize> VoteGrid<GRID> {
 }
 
 impl<const GRID: usize> Default for VoteGrid<GRID> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// One voter's votes before they join an accumulator: each bin keeps the voter's best weight.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BestPerBin<const GRID: usize> {
+    cells: [[u8; GRID]; GRID],
+    /// Heading bins and distance bins (first, last, first, last) holding weights.
+    touched: Option<(usize, usize, usize, usize)>,
+}
+
+impl<const GRID: usize> BestPerBin<GRID> {
+    /// No votes.
+    pub const fn new() -> Self {
+        Self {
+            cells: [[0; GRID]; GRID],
+            touched: None,
+        }
+    }
+
+    /// Keeps `weight` for bin `(i, j)` if it beats the one there; ignored outside the grid.
+    pub fn keep(&mut self, i: usize, j: usize, weight: u8) {
+        if let Some(cell) = self.cells.get_mut(i).and_then(|row| row.get_mut(j)) {
+            *cell = (*cell).max(weight);
+            self.touched = Some(match self.touched {
+                None => (i, i, j, j),
+                Some((i0, i1, j0, j1)) => (i0.min(i), i1.max(i), j0.min(j), j1.max(j)),
+            });
+        }
+    }
+
+    /// Adds the kept weights to `grid` and forgets them. Costs the bins between the first and
+    /// last touched, not the whole grid.
+    pub fn add_to(&mut self, grid: &mut VoteGrid<GRID>) {
+        let Some((i0, i1, j0, j1)) = self.touched.take() else {
+            return;
+        };
+        for (i, row) in self.cells.iter_mut().enumerate().take(i1 + 1).skip(i0) {
+            for (j, cell) in row.iter_mut().enumerate().take(j1 + 1).skip(j0) {
+                if *cell > 0 {
+                    grid.add(i, j, u16::from(*cell));
+                    *cell = 0;
+                }
+            }
+        }
+    }
+}
+
+impl<const GRID: usize> Default for BestPerBin<GRID> {
     fn default() -> Self {
         Self::new()
     }
@@ -233,6 +293,28 @@ mod tests {
         assert!((p.heading_bin - 3.0).abs() < 1e-6);
         assert!((p.distance_bin - (5.0 * 4.0 + 6.0 * 2.0) / 6.0).abs() < 1e-6);
         assert!(VoteGrid::<8>::default().peak().is_none());
+    }
+
+    #[test]
+    fn a_voter_gives_each_bin_its_best_weight_once() {
+        let mut votes = BestPerBin::<8>::new();
+        votes.keep(2, 3, 4);
+        votes.keep(2, 3, 7);
+        votes.keep(2, 3, 5);
+        votes.keep(5, 1, 2);
+        votes.keep(9, 9, 50); // outside: ignored
+        let mut g = VoteGrid::<8>::new();
+        votes.add_to(&mut g);
+        assert_eq!((g.get(2, 3), g.get(5, 1)), (7, 2));
+        // Forgotten once added: a second voter starts empty.
+        votes.keep(2, 3, 1);
+        votes.add_to(&mut g);
+        assert_eq!(g.get(2, 3), 8);
+        let total: u32 = (0..8)
+            .flat_map(|i| (0..8).map(move |j| (i, j)))
+            .map(|(i, j)| u32::from(g.get(i, j)))
+            .sum();
+        assert_eq!(total, 10);
     }
 
     #[test]

@@ -11,7 +11,7 @@ use roadvo::{
 
 fn config(u: &mut Unstructured) -> arbitrary::Result<Config> {
     let mut f = || f32::arbitrary(u);
-    let floats: [f32; 27] = std::array::from_fn(|_| f().unwrap_or(0.0));
+    let floats: [f32; 28] = std::array::from_fn(|_| f().unwrap_or(0.0));
     Ok(Config {
         image: ImageSize {
             width_px: u.arbitrary()?,
@@ -58,6 +58,12 @@ fn config(u: &mut Unstructured) -> arbitrary::Result<Config> {
             heading_half_rad: floats[18],
             distance_half_m: floats[19],
             lateral_tolerance_m: floats[20],
+            corner_sigma_px: floats[24],
+            roll_range_rad: floats[25],
+            roll_steps: u.arbitrary()?,
+            max_roll_change_steps: u.arbitrary()?,
+            absolute_gain: floats[26],
+            pitch_settle_s: floats[27],
             startup_heading_half_rad: floats[21],
             startup_distance_max_m: floats[22],
         },

@@ -153,6 +153,18 @@ pub struct OdometerSection {
     pub distance_window_m: f32,
     /// Default method: largest lateral residual that votes, metres.
     pub lateral_tolerance_m: f32,
+    /// Default method: standard deviation of a corner's row, pixels (0: one bin a pair).
+    pub corner_sigma_px: f32,
+    /// Default method: roll hypotheses span +- this, degrees.
+    pub roll_range_deg: f32,
+    /// Default method: number of roll hypotheses (odd; 1: no roll search).
+    pub roll_steps: u8,
+    /// Default method: largest roll change between frames, in roll steps.
+    pub max_roll_change_steps: u8,
+    /// Default method: share of the measured common pitch error applied each frame.
+    pub absolute_gain: f32,
+    /// Default method: time constant of the pitch's return to level, seconds (0: never).
+    pub pitch_settle_s: f32,
 }
 
 impl Default for OdometerSection {
@@ -179,6 +191,12 @@ impl Default for OdometerSection {
             heading_window_deg: pv.heading_half_rad.to_degrees(),
             distance_window_m: pv.distance_half_m,
             lateral_tolerance_m: pv.lateral_tolerance_m,
+            corner_sigma_px: pv.corner_sigma_px,
+            roll_range_deg: pv.roll_range_rad.to_degrees(),
+            roll_steps: pv.roll_steps,
+            max_roll_change_steps: pv.max_roll_change_steps,
+            absolute_gain: pv.absolute_gain,
+            pitch_settle_s: pv.pitch_settle_s,
         }
     }
 }
@@ -304,6 +322,12 @@ impl MountFile {
                 heading_half_rad: o.heading_window_deg.to_radians(),
                 distance_half_m: o.distance_window_m,
                 lateral_tolerance_m: o.lateral_tolerance_m,
+                corner_sigma_px: o.corner_sigma_px,
+                roll_range_rad: o.roll_range_deg.to_radians(),
+                roll_steps: o.roll_steps,
+                max_roll_change_steps: o.max_roll_change_steps,
+                absolute_gain: o.absolute_gain,
+                pitch_settle_s: o.pitch_settle_s,
                 ..PitchVoteSettings::default()
             },
             min_inlier_ratio: o.min_inlier_ratio,
@@ -373,7 +397,7 @@ height_m = 1.65
         let seq_camera: MountFile = toml::from_str(KITTI).unwrap();
         let f = MountFile::read(Path::new(shipped), Some(&seq_camera.camera)).unwrap();
         assert_eq!(f.camera, seq_camera.camera);
-        assert_eq!(f.mount.height_m, 1.65);
+        assert_eq!(f.mount.height_m, 1.57);
         f.to_config().validate().unwrap();
         let e = format!(
             "{:#}",

@@ -30,6 +30,7 @@ struct QualityLine {
     startup: bool,
     vote_peak: u32,
     pitch_rad: f32,
+    roll_rad: f32,
     tracks_refused: u16,
 }
 
@@ -280,6 +281,7 @@ pub fn run_sequence(
                 startup: q.startup,
                 vote_peak: q.vote_peak,
                 pitch_rad: q.pitch_rad,
+                roll_rad: q.roll_rad,
                 tracks_refused: q.tracks_refused,
             };
             writeln!(out, "{}", serde_json::to_string(&line)?)?;

@@ -71,12 +71,14 @@ fn s_course_with_suspension_motion() {
 #[test]
 fn kitti_like_with_suspension_motion() {
     // 130 frames, about 110 m: a few KITTI-length segments, and the first curve.
-    // The acceptance figure (t_err <= 3% over the 400-frame drive) comes from
-    // scripts/eval-synthetic; over this drive's single 100 m segment the bound is looser.
+    // The acceptance figures (t_err <= 3%, r_err <= 0.01 deg/m over the 400-frame drive) come
+    // from scripts/eval-synthetic; over this drive's single 100 m segment the bounds are looser:
+    // a per-frame heading error of sd 0.06-0.08 deg walks about 0.8 deg in 110 frames, so one
+    // segment's r_err alone is 0.008 deg/m give or take as much.
     let d = drive("kitti-like", &["suspension"], 130, MethodName::Default);
     let r = &d.report;
     assert!(r.t_err_pct.is_some_and(|t| t <= 6.0), "{r:#?}");
-    assert!(r.r_err_deg_per_m.is_some_and(|e| e <= 0.01), "{r:#?}");
+    assert!(r.r_err_deg_per_m.is_some_and(|e| e <= 0.02), "{r:#?}");
 }
 
 #[test]
