@@ -575,7 +575,7 @@ impl Config {
         }
         let mut roll_fan = [RollMap::ZERO; MAX_ROLL_HYPOTHESES];
         for (i, map) in roll_fan.iter_mut().enumerate().take(pv.roll_steps.into()) {
-            let roll_rad = hypothesis_rad(pv.roll_range_rad, pv.roll_steps, i);
+            let roll_rad = roll_hypothesis_rad(pv, i);
             *map = RollMap::new(k, m, roll_rad).ok_or(ConfigError::DegenerateGeometry)?;
         }
         let mut valid = ValidConfig {
@@ -602,19 +602,31 @@ impl Config {
     fn check_pitch_vote(&self) -> Result<(), ConfigError> {
         let pv = &self.pitch_vote;
         let bad = |field| Err(ConfigError::PitchVoteOutOfRange { field });
-        let steps = usize::from(pv.pitch_steps);
-        if steps == 0 || steps % 2 == 0 || steps > MAX_PITCH_HYPOTHESES {
-            return bad("pitch_vote.pitch_steps");
-        }
-        let roll_steps = usize::from(pv.roll_steps);
-        if roll_steps == 0 || roll_steps % 2 == 0 || roll_steps > MAX_ROLL_HYPOTHESES {
-            return bad("pitch_vote.roll_steps");
-        }
-        if !(0.0..=MAX_ATTITUDE_BOUND_RAD).contains(&pv.roll_range_rad) {
-            return bad("pitch_vote.roll_range_rad");
-        }
-        if !(0.0..=MAX_ATTITUDE_BOUND_RAD).contains(&pv.pitch_range_rad) {
-            return bad("pitch_vote.pitch_range_rad");
+        // Each fan: an odd number of hypotheses it has room for, over a range of angles.
+        let fans = [
+            (
+                pv.pitch_steps,
+                MAX_PITCH_HYPOTHESES,
+                "pitch_vote.pitch_steps",
+                pv.pitch_range_rad,
+                "pitch_vote.pitch_range_rad",
+            ),
+            (
+                pv.roll_steps,
+                MAX_ROLL_HYPOTHESES,
+                "pitch_vote.roll_steps",
+                pv.roll_range_rad,
+                "pitch_vote.roll_range_rad",
+            ),
+        ];
+        for (steps, max, steps_field, range_rad, range_field) in fans {
+            let steps = usize::from(steps);
+            if steps == 0 || steps % 2 == 0 || steps > max {
+                return bad(steps_field);
+            }
+            if !(0.0..=MAX_ATTITUDE_BOUND_RAD).contains(&range_rad) {
+                return bad(range_field);
+            }
         }
         let positive = [
             (pv.heading_half_rad, "pitch_vote.heading_half_rad"),

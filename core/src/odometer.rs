@@ -5,7 +5,7 @@ use crate::frame::Frame;
 use crate::harris::{self, Corners, HarrisScratch};
 use crate::motion::{Motion, Pose2};
 use crate::paper::PaperScratch;
-use crate::pitch_vote::{AttitudeDrift, AttitudeIndex, PitchVoteScratch};
+use crate::pitch_vote::{AttitudeDrift, AttitudeIndex, PitchVoteScratch, backproject};
 use crate::projection::{Homography, RollMap};
 use crate::tracks::{Observation, Spawn, Tracks};
 use crate::vote::MotionWindow;
@@ -354,9 +354,7 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
         let (h, roll) = self.seen();
         let seen = self.corners.iter().filter_map(|c| {
             let pixel = c.pixel();
-            roll.apply(pixel)
-                .and_then(|level| h.backproject(level))
-                .map(|ground| Observation { ground, pixel })
+            backproject((&h, &roll), pixel).map(|ground| Observation { ground, pixel })
         });
         spawn_all(&mut self.tracks, seen)
     }

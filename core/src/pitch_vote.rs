@@ -82,7 +82,7 @@
 use crate::config::ValidConfig;
 use crate::harris::Corners;
 use crate::motion::Motion;
-use crate::projection::{GroundPoint, Homography, RollMap};
+use crate::projection::{GroundPoint, Homography, Pixel, RollMap};
 use crate::tracks::{Observation, Track};
 use crate::vote::{BestPerBin, MotionWindow, Peak, VoteGrid};
 use heapless::Vec;
@@ -162,36 +162,56 @@ fn vote_distance<const GRID: usize>(
 /// uncertain by `corner_sigma_px`, and a row's ground range changes by `(x^2 + h^2) / (f h)`
 /// metres a pixel at range `x`.
 struct Spread {
-    /// Metres of range a pixel per square metre of `x^2 + h^2`.
+    /// Metres of range a pixel per square metre of `x^2 + h^2` (0: sharp, no tent).
     per_px: f32,
     height_sq_m2: f32,
+    /// The camera's look direction and position on the ground, vehicle frame: a point's range
+    /// is measured along the one from the other (as [`ValidConfig::window_coords`] does, its
+    /// sine and cosine taken once here rather than for every pair).
+    cos_yaw: f32,
+    sin_yaw: f32,
+    camera: GroundPoint,
 }
 
 impl Spread {
     fn new(cfg: &ValidConfig, sharp: bool) -> Self {
         let c = cfg.config();
-        let h = c.mount.height_m;
+        let m = &c.mount;
         let sigma = if sharp {
             0.0
         } else {
             c.pitch_vote.corner_sigma_px
         };
         Self {
-            per_px: sigma / (c.intrinsics.fy_px * h),
-            height_sq_m2: h * h,
+            per_px: sigma / (c.intrinsics.fy_px * m.height_m),
+            height_sq_m2: m.height_m * m.height_m,
+            cos_yaw: libm::cosf(m.yaw_rad),
+            sin_yaw: libm::sinf(m.yaw_rad),
+            camera: GroundPoint {
+                x_m: m.x_m,
+                y_m: m.y_m,
+            },
         }
     }
 
-    /// Variance of the range of ground point `p`, square metres.
-    fn range_variance(&self, cfg: &ValidConfig, p: GroundPoint) -> f32 {
-        let (ahead, _) = cfg.window_coords(p);
+    /// Variance of the range of ground point `p`, square metres (0 when sharp).
+    fn range_variance(&self, p: GroundPoint) -> f32 {
+        if self.per_px == 0.0 {
+            return 0.0;
+        }
+        let ahead =
+            self.cos_yaw * (p.x_m - self.camera.x_m) + self.sin_yaw * (p.y_m - self.camera.y_m);
         let sd = (ahead * ahead + self.height_sq_m2) * self.per_px;
         sd * sd
     }
 
-    /// Half width of the distance tent of a pair whose two ranges' variances sum to `var`.
-    fn half_width_m(&self, var: f32) -> f32 {
-        SPREAD_SIGMAS * libm::sqrtf(var)
+    /// Half width of the distance tent of a pair: a point whose range variance is `var_p` and
+    /// observation `c`.
+    fn half_width_m(&self, var_p: f32, c: GroundPoint) -> f32 {
+        if self.per_px == 0.0 {
+            return 0.0;
+        }
+        SPREAD_SIGMAS * libm::sqrtf(var_p + self.range_variance(c))
     }
 }
 
@@ -277,6 +297,13 @@ pub struct AttitudeDrift {
 /// A homography and a roll map: how the corners of one frame are seen.
 pub type Seen<'a> = (&'a Homography, &'a RollMap);
 
+/// The ground point of a pixel seen at attitude `at`: through the roll's map, then the pitch's
+/// homography. `None` at or above the horizon.
+pub fn backproject(at: Seen, px: Pixel) -> Option<GroundPoint> {
+    let (h, roll) = at;
+    roll.apply(px).and_then(|level| h.backproject(level))
+}
+
 /// Hypotheses within `reach` of `previous` among `len`.
 fn near(previous: usize, reach: u8, len: usize) -> core::ops::Range<usize> {
     let reach = usize::from(reach);
@@ -329,12 +356,11 @@ pub struct VoteOutcome {
 impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, GRID> {
     /// Backprojects the corners seen at body attitude `at` into `self.obs`.
     pub fn observe(&mut self, corners: &Corners<F>, at: Seen) {
-        let (h, roll) = at;
         for (side, heap) in self.obs.iter_mut().zip([&corners.left, &corners.right]) {
             side.clear();
             for c in heap.iter() {
                 let pixel = c.pixel();
-                if let Some(ground) = roll.apply(pixel).and_then(|level| h.backproject(level)) {
+                if let Some(ground) = backproject(at, pixel) {
                     // Cannot overflow: as many observations as corners.
                     let _ = side.push(Observation { ground, pixel });
                 }
@@ -348,10 +374,7 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
     fn place_tracks(&mut self, tracks: &[Track], at: Option<Seen>) {
         for (slot, t) in self.prev.iter_mut().zip(tracks) {
             *slot = match (at, t.pixel) {
-                (Some((h, roll)), Some(px)) => roll
-                    .apply(px)
-                    .and_then(|level| h.backproject(level))
-                    .unwrap_or(t.ground),
+                (Some(at), Some(px)) => backproject(at, px).unwrap_or(t.ground),
                 _ => t.ground,
             };
         }
@@ -377,7 +400,7 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
             let radius = libm::hypotf(p.x_m, p.y_m);
             // A turn of at most max_turn moves the point by at most this much, plus the drive.
             let slack = (radius + reach) * max_turn + tolerance_m;
-            let sigma_p = spread.range_variance(cfg, p);
+            let var_p = spread.range_variance(p);
             for o in obs[0].iter().chain(obs[1].iter()) {
                 let c = &o.ground;
                 let dx = p.x_m - c.x_m;
@@ -407,7 +430,7 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
                     (lo.max(0.0) as usize, (hi as usize).min(last))
                 };
                 // Half width of the pair's distance tent, metres (0: sharp).
-                let half_m = spread.half_width_m(sigma_p + spread.range_variance(cfg, *c));
+                let half_m = spread.half_width_m(var_p, *c);
                 for (i, t) in trig.iter().enumerate().take(hi + 1).skip(lo) {
                     let (r, v) = residual(p, *c, t);
                     if r.abs() < tolerance_m {
@@ -424,19 +447,16 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
         }
     }
 
-    /// Votes with the tracks placed at attitude `prev` and the corners seen at `cur`; the peak.
-    #[allow(clippy::too_many_arguments)]
+    /// Votes with the tracks as placed and the corners seen at `cur`; the peak.
     fn try_attitude(
         &mut self,
         cfg: &ValidConfig,
         tracks: &[Track],
         corners: &Corners<F>,
-        prev: Option<Seen>,
         cur: Seen,
         window: &MotionWindow,
         sharp: bool,
     ) -> Option<Peak> {
-        self.place_tracks(tracks, prev);
         self.observe(corners, cur);
         self.vote(cfg, tracks.len(), window, sharp);
         self.grid.peak()
@@ -467,10 +487,11 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
         // Relative passes: the previous frame as it was estimated; this frame's pitches at the
         // previous roll, then its rolls at the best pitch. Better score wins; on a tie, the
         // smaller change.
+        self.place_tracks(tracks, None);
         let mut pitch: Option<(u32, usize)> = None;
         for k in near(previous.pitch, pv.max_pitch_change_steps, fan.len()) {
             let cur = (fan.get(k)?, prev_roll);
-            let peak = self.try_attitude(cfg, tracks, corners, None, cur, window, true);
+            let peak = self.try_attitude(cfg, tracks, corners, cur, window, true);
             pitch = better(pitch, peak, k, previous.pitch);
         }
         let (score, cur_pitch) = pitch?;
@@ -479,7 +500,7 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
         for j in near(previous.roll, pv.max_roll_change_steps, rolls.len()) {
             if j != previous.roll {
                 let cur = (h, rolls.get(j)?);
-                let peak = self.try_attitude(cfg, tracks, corners, None, cur, window, true);
+                let peak = self.try_attitude(cfg, tracks, corners, cur, window, true);
                 roll = better(roll, peak, j, previous.roll);
             }
         }
@@ -497,13 +518,11 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
             cur_roll,
             rolls.len(),
         );
-        let prev_at = if (p, pr) == (previous.pitch, previous.roll) {
-            None
-        } else {
-            Some((fan.get(p)?, rolls.get(pr)?))
-        };
+        if (p, pr) != (previous.pitch, previous.roll) {
+            self.place_tracks(tracks, Some((fan.get(p)?, rolls.get(pr)?)));
+        }
         let cur = (fan.get(c)?, rolls.get(cr)?);
-        let peak = self.try_attitude(cfg, tracks, corners, prev_at, cur, window, !spread)?;
+        let peak = self.try_attitude(cfg, tracks, corners, cur, window, !spread)?;
         Some(VoteOutcome {
             motion: window.motion_at(peak.heading_bin, peak.distance_bin, GRID),
             attitude: AttitudeIndex { pitch: c, roll: cr },
@@ -529,7 +548,7 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
         let mut matched = 0;
         for (&p, slot) in self.prev.iter().take(tracks.len()).zip(observed.iter_mut()) {
             *slot = None;
-            let var_p = spread.range_variance(cfg, p);
+            let var_p = spread.range_variance(p);
             let mut best: Option<(f32, usize, usize)> = None;
             for (side, (obs, used)) in self.obs.iter().zip(&self.used).enumerate() {
                 for (k, (c, &used)) in obs.iter().zip(used).enumerate() {
@@ -540,7 +559,7 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
                     let along = (v - motion.distance_m).abs();
                     // As far along as the pair's distance tent reaches, if farther.
                     let reach = spread
-                        .half_width_m(var_p + spread.range_variance(cfg, c.ground))
+                        .half_width_m(var_p, c.ground)
                         .max(distance_tolerance_m);
                     if across.abs() < tolerance_m && along < reach {
                         let cost = across.abs() + along;
