@@ -333,6 +333,9 @@ pub struct ValidConfig {
     roll_fan: [RollMap; MAX_ROLL_HYPOTHESES],
     lift: CameraLift,
     roi: ImageRoi,
+    /// The ground window's image, clipped to the frame (pixels): [`Self::roi`] is its bounding
+    /// rectangle, [`Self::roi_rows`] its rows under a band of columns.
+    roi_image: Polygon,
 }
 
 impl ValidConfig {
@@ -394,6 +397,7 @@ impl ValidConfig {
                 top_px: 0,
                 bottom_px: 0,
             },
+            roi_image: Polygon::EMPTY,
         }
     };
 
@@ -435,6 +439,26 @@ impl ValidConfig {
     /// The image rectangle holding the ground window.
     pub fn roi(&self) -> ImageRoi {
         self.roi
+    }
+
+    /// The rows of the region of interest where a point within a pixel of the columns
+    /// `left_px..=right_px` can lie in the ground window's image: the window's image is a
+    /// trapezoid, narrower at the far end than its bounding rectangle, so that a band of columns
+    /// off the centre holds fewer of its rows. `None` if the band misses the window.
+    pub fn roi_rows(&self, left_px: u16, right_px: u16) -> Option<(u16, u16)> {
+        let (lo, hi) = (f32::from(left_px) - 1.0, f32::from(right_px) + 1.0);
+        let band = self.roi_image.clip(|[u, _]| u - lo).clip(|[u, _]| hi - u);
+        let (mut top, mut bottom) = (f32::INFINITY, f32::NEG_INFINITY);
+        for &[_, v] in band.points() {
+            (top, bottom) = (top.min(v), bottom.max(v));
+        }
+        if top > bottom {
+            return None;
+        }
+        // A pixel's corner may sit half a pixel off it: one pixel of margin, outwards.
+        let top = (libm::floorf(top - 1.0).max(0.0) as u16).max(self.roi.top_px);
+        let bottom = (libm::ceilf(bottom + 1.0).max(0.0) as u16).min(self.roi.bottom_px);
+        (top <= bottom).then_some((top, bottom))
     }
 
     /// The rows of each frame the odometer reads (the region of interest and the corner
@@ -590,12 +614,14 @@ impl Config {
                 top_px: 0,
                 bottom_px: 0,
             },
+            roi_image: Polygon::EMPTY,
         };
-        let roi = valid.image_roi().ok_or(ConfigError::RoiOutsideImage)?;
+        let (roi, image) = valid.image_roi().ok_or(ConfigError::RoiOutsideImage)?;
         if roi.right_px - roi.left_px < MIN_ROI_PX || roi.bottom_px - roi.top_px < MIN_ROI_PX {
             return Err(ConfigError::RoiTooSmall);
         }
         valid.roi = roi;
+        valid.roi_image = image;
         Ok(valid)
     }
 
@@ -731,7 +757,7 @@ impl ValidConfig {
     /// The bounding rectangle of the ground window's image, clipped to the frame. `None` when the
     /// far end of the window is not visible, or when its pixel backprojects above the horizon
     /// under one of the extremal attitudes.
-    fn image_roi(&self) -> Option<ImageRoi> {
+    fn image_roi(&self) -> Option<(ImageRoi, Polygon)> {
         let w = &self.config.window;
         let size = &self.config.image;
         let (max_u, max_v) = (f32::from(size.width_px - 1), f32::from(size.height_px - 1));
@@ -773,23 +799,29 @@ impl ValidConfig {
             }
         }
         // Rounding outwards; the casts cannot wrap, the values lie in the frame.
-        Some(ImageRoi {
+        let roi = ImageRoi {
             left_px: libm::floorf(lo[0]) as u16,
             right_px: libm::ceilf(hi[0]) as u16,
             top_px: libm::floorf(lo[1]) as u16,
             bottom_px: libm::ceilf(hi[1]) as u16,
-        })
+        };
+        Some((roi, image))
     }
 }
 
 /// A small convex polygon for clipping: four corners, each half-plane cut adds at most one.
-#[derive(Clone, Copy, Default)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct Polygon {
     points: [[f32; 2]; 8],
     len: usize,
 }
 
 impl Polygon {
+    const EMPTY: Self = Self {
+        points: [[0.0; 2]; 8],
+        len: 0,
+    };
+
     fn points(&self) -> &[[f32; 2]] {
         &self.points[..self.len.min(self.points.len())]
     }
@@ -823,6 +855,7 @@ impl Polygon {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use crate::projection::Pixel;
 
     const DEG: f32 = core::f32::consts::PI / 180.0;
 
@@ -867,6 +900,47 @@ pub(crate) mod tests {
             x_m: 8.0,
             y_m: -3.5
         }));
+    }
+
+    #[test]
+    fn roi_rows_hold_every_window_pixel_of_their_columns() {
+        // Level, and a mount turned and tilted so that the window's image is skewed.
+        for (yaw, pitch, roll) in [(0.0, 0.0, 0.0), (4.0, -2.0, 1.5), (-6.0, 1.0, -2.0)] {
+            let mut c = kitti_config();
+            (c.mount.yaw_rad, c.mount.pitch_rad, c.mount.roll_rad) =
+                (yaw * DEG, pitch * DEG, roll * DEG);
+            let v = c.validate().unwrap();
+            let roi = v.roi();
+            let mut fewer = false;
+            for left in (roi.left_px..=roi.right_px).step_by(64) {
+                let right = (left + 63).min(roi.right_px);
+                let rows = v.roi_rows(left, right);
+                let (top, bottom) = rows.unwrap_or((u16::MAX, 0));
+                fewer |= rows.is_some_and(|(t, b)| b - t < roi.bottom_px - roi.top_px);
+                for u in left..=right {
+                    for row in roi.top_px..=roi.bottom_px {
+                        // Anywhere within half a pixel of the pixel's centre.
+                        for (du, dv) in [(-0.5, -0.5), (-0.5, 0.5), (0.5, -0.5), (0.5, 0.5)] {
+                            let px = Pixel {
+                                u_px: f32::from(u) + du,
+                                v_px: f32::from(row) + dv,
+                            };
+                            let inside = v
+                                .projection()
+                                .nominal
+                                .backproject(px)
+                                .is_some_and(|g| v.in_window(g));
+                            assert!(
+                                !inside || (top..=bottom).contains(&row),
+                                "pixel ({u}, {row}) of columns {left}..={right} outside rows \
+                                 {rows:?} (mount {yaw}/{pitch}/{roll} deg)"
+                            );
+                        }
+                    }
+                }
+            }
+            assert!(fewer, "no band narrower than the ROI: {roi:?}");
+        }
     }
 
     #[test]

@@ -183,9 +183,7 @@ pub fn detect<F: Frame + ?Sized, const K: usize>(
 ) {
     out.clear();
     let roi = cfg.roi();
-    let rows = inside_border(roi.top_px, roi.bottom_px, frame.height());
-    let cols = inside_border(roi.left_px, roi.right_px, frame.width());
-    let (Some((top, bottom)), Some((left, right))) = (rows, cols) else {
+    let Some((left, right)) = inside_border(roi.left_px, roi.right_px, frame.width()) else {
         return;
     };
     let limit = usize::from(cfg.config().features_per_side);
@@ -193,6 +191,16 @@ pub fn detect<F: Frame + ?Sized, const K: usize>(
     let mut x0 = left;
     while x0 <= right {
         let x1 = (x0 + STRIP as u16 - 1).min(right);
+        // Only the rows where the strip meets the window's image: the corners outside it are
+        // not kept (see `side`), and the rows are read with their border around them, so the
+        // corners inside are those of the whole rectangle, bit for bit.
+        let rows = cfg
+            .roi_rows(x0, x1)
+            .and_then(|(top, bottom)| inside_border(top, bottom, frame.height()));
+        let Some((top, bottom)) = rows else {
+            x0 = x1 + 1;
+            continue;
+        };
         strip(
             frame,
             cfg,

@@ -2,6 +2,7 @@
 //! change by distance, and the ways to read an estimate out of it.
 
 use crate::motion::Motion;
+use heapless::Vec;
 
 /// A rectangle of motions: heading change by distance per frame. Bin `(i, j)` of a `GRID x GRID`
 /// accumulator covers heading bin `i` and distance bin `j`; bin centres sit half a bin in.
@@ -92,12 +93,23 @@ impl<const GRID: usize> Default for VoteGrid<GRID> {
     }
 }
 
+/// Bins one voter may hold before [`BestPerBin`] stops listing them and scans the whole grid
+/// instead (a track rarely holds more than a few hundred; 2 bytes each), and past bin 255.
+pub const KEPT_BINS: usize = 1024;
+
 /// One voter's votes before they join an accumulator: each bin keeps the voter's best weight.
 #[derive(Clone, Debug, PartialEq)]
 pub struct BestPerBin<const GRID: usize> {
     cells: [[u8; GRID]; GRID],
-    /// Heading bins and distance bins (first, last, first, last) holding weights.
-    touched: Option<(usize, usize, usize, usize)>,
+    /// The bins holding weights, (heading bin, distance bin), in the order first kept: adding
+    /// them costs the bins voted, not the box around them (a track's pairs reach a handful of
+    /// bins scattered over the window, and scanning their bounding box took a fifth of the
+    /// vote's time).
+    kept: Vec<(u8, u8), KEPT_BINS>,
+    /// More bins were kept than listed: the whole grid is scanned. (A flag rather than an
+    /// `Option` of the list: an empty voter stays all zeros, so an odometer `static` stays in
+    /// `.bss` rather than taking its size in flash.)
+    spilled: bool,
 }
 
 impl<const GRID: usize> BestPerBin<GRID> {
@@ -105,35 +117,48 @@ impl<const GRID: usize> BestPerBin<GRID> {
     pub const fn new() -> Self {
         Self {
             cells: [[0; GRID]; GRID],
-            touched: None,
+            kept: Vec::new(),
+            spilled: false,
         }
     }
 
-    /// Keeps `weight` for bin `(i, j)` if it beats the one there; ignored outside the grid.
+    /// Keeps `weight` for bin `(i, j)` if it beats the one there; ignored outside the grid or
+    /// when 0.
     pub fn keep(&mut self, i: usize, j: usize, weight: u8) {
-        if let Some(cell) = self.cells.get_mut(i).and_then(|row| row.get_mut(j)) {
-            *cell = (*cell).max(weight);
-            self.touched = Some(match self.touched {
-                None => (i, i, j, j),
-                Some((i0, i1, j0, j1)) => (i0.min(i), i1.max(i), j0.min(j), j1.max(j)),
-            });
-        }
-    }
-
-    /// Adds the kept weights to `grid` and forgets them. Costs the bins between the first and
-    /// last touched, not the whole grid.
-    pub fn add_to(&mut self, grid: &mut VoteGrid<GRID>) {
-        let Some((i0, i1, j0, j1)) = self.touched.take() else {
+        let Some(cell) = self.cells.get_mut(i).and_then(|row| row.get_mut(j)) else {
             return;
         };
-        for (i, row) in self.cells.iter_mut().enumerate().take(i1 + 1).skip(i0) {
-            for (j, cell) in row.iter_mut().enumerate().take(j1 + 1).skip(j0) {
-                if *cell > 0 {
+        if *cell == 0 && weight > 0 && !self.spilled {
+            self.spilled = match (u8::try_from(i), u8::try_from(j)) {
+                (Ok(i), Ok(j)) => self.kept.push((i, j)).is_err(),
+                _ => true,
+            };
+        }
+        *cell = (*cell).max(weight);
+    }
+
+    /// Adds the kept weights to `grid` and forgets them.
+    pub fn add_to(&mut self, grid: &mut VoteGrid<GRID>) {
+        if self.spilled {
+            for (i, row) in self.cells.iter_mut().enumerate() {
+                for (j, cell) in row.iter_mut().enumerate() {
+                    if *cell > 0 {
+                        grid.add(i, j, u16::from(*cell));
+                        *cell = 0;
+                    }
+                }
+            }
+        } else {
+            for &(i, j) in self.kept.iter() {
+                let (i, j) = (usize::from(i), usize::from(j));
+                if let Some(cell) = self.cells.get_mut(i).and_then(|row| row.get_mut(j)) {
                     grid.add(i, j, u16::from(*cell));
                     *cell = 0;
                 }
             }
         }
+        self.kept.clear();
+        self.spilled = false;
     }
 }
 
@@ -315,6 +340,28 @@ mod tests {
             .map(|(i, j)| u32::from(g.get(i, j)))
             .sum();
         assert_eq!(total, 10);
+    }
+
+    #[test]
+    fn a_voter_with_more_bins_than_listed_adds_the_same_votes() {
+        let mut votes = BestPerBin::<64>::new();
+        let mut direct = VoteGrid::<64>::new();
+        let cells = (0..64).flat_map(|i| (0..64).map(move |j| (i, j)));
+        for (n, (i, j)) in cells.enumerate().filter(|(n, _)| n % 3 != 1) {
+            let w = (n % 7 + 1) as u8;
+            votes.keep(i, j, w);
+            direct.add(i, j, u16::from(w));
+        }
+        let mut g = VoteGrid::<64>::new();
+        votes.add_to(&mut g);
+        const { assert!(2 * 64 * 64 / 3 > KEPT_BINS) };
+        assert_eq!(g, direct);
+        // Listing again afterwards, from empty.
+        votes.keep(1, 2, 5);
+        votes.add_to(&mut g);
+        assert_eq!(g.get(1, 2), direct.get(1, 2) + 5);
+        votes.add_to(&mut g);
+        assert_eq!(g.get(1, 2), direct.get(1, 2) + 5);
     }
 
     #[test]
