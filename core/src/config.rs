@@ -448,13 +448,7 @@ impl ValidConfig {
     pub fn roi_rows(&self, left_px: u16, right_px: u16) -> Option<(u16, u16)> {
         let (lo, hi) = (f32::from(left_px) - 1.0, f32::from(right_px) + 1.0);
         let band = self.roi_image.clip(|[u, _]| u - lo).clip(|[u, _]| hi - u);
-        let (mut top, mut bottom) = (f32::INFINITY, f32::NEG_INFINITY);
-        for &[_, v] in band.points() {
-            (top, bottom) = (top.min(v), bottom.max(v));
-        }
-        if top > bottom {
-            return None;
-        }
+        let ([_, top], [_, bottom]) = band.bounds()?;
         // A pixel's corner may sit half a pixel off it: one pixel of margin, outwards.
         let top = (libm::floorf(top - 1.0).max(0.0) as u16).max(self.roi.top_px);
         let bottom = (libm::ceilf(bottom + 1.0).max(0.0) as u16).min(self.roi.bottom_px);
@@ -791,13 +785,8 @@ impl ValidConfig {
             .clip(|[u, _]| max_u - u)
             .clip(|[_, v]| v)
             .clip(|[_, v]| max_v - v);
-        let (mut lo, mut hi) = ([max_u, max_v], [0.0f32, 0.0f32]);
-        for p in image.points() {
-            for k in 0..2 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
+        // Not empty: it holds the far end's pixel, inside the frame.
+        let (lo, hi) = image.bounds()?;
         // Rounding outwards; the casts cannot wrap, the values lie in the frame.
         let roi = ImageRoi {
             left_px: libm::floorf(lo[0]) as u16,
@@ -821,6 +810,18 @@ impl Polygon {
         points: [[0.0; 2]; 8],
         len: 0,
     };
+
+    /// The lowest and highest coordinates of the corners, `None` when there are none.
+    fn bounds(&self) -> Option<([f32; 2], [f32; 2])> {
+        let (first, rest) = self.points().split_first()?;
+        let (mut lo, mut hi) = (*first, *first);
+        for p in rest {
+            for ((lo, hi), &x) in lo.iter_mut().zip(hi.iter_mut()).zip(p) {
+                (*lo, *hi) = (lo.min(x), hi.max(x));
+            }
+        }
+        Some((lo, hi))
+    }
 
     fn points(&self) -> &[[f32; 2]] {
         &self.points[..self.len.min(self.points.len())]
