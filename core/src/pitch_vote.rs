@@ -123,6 +123,24 @@ fn tent_weight(lateral: f32, along: Option<f32>) -> u8 {
     ((1.0 + VOTE_WEIGHT * lateral) * along.map_or(1.0, |a| 1.0 + VOTE_WEIGHT * a)) as u8
 }
 
+/// Sorts ground points by range, nearest first (insertion sort: a few dozen points, no
+/// allocation, no panic path).
+fn sort_by_ahead(points: &mut [GroundPoint]) {
+    for i in 1..points.len() {
+        let mut j = i;
+        while j > 0 {
+            let Some([a, b]) = points.get_mut(j - 1..=j) else {
+                break;
+            };
+            if a.x_m <= b.x_m {
+                break;
+            }
+            core::mem::swap(a, b);
+            j -= 1;
+        }
+    }
+}
+
 /// Keeps the votes of a pair at heading bin `i` for distance `v_m`: one bin when `half_m` is 0,
 /// else a tent of half width `half_m` (at least a bin) whose height falls as it widens, so that
 /// the pair's votes are a density: a pair that allows a wide span of distances weighs less in
@@ -232,6 +250,9 @@ pub struct PitchVoteScratch<const N: usize, const F: usize, const GRID: usize> {
     grid: VoteGrid<GRID>,
     /// Observations under one pitch, left and right of straight ahead.
     obs: [Vec<Observation, F>; 2],
+    /// The observations' ground points on each side, nearest first: a track's candidates are
+    /// then one run of them (found by bisection) rather than a test of every observation.
+    ahead: [Vec<GroundPoint, F>; 2],
     /// The tracks' positions in the previous frame under one pitch hypothesis for it.
     prev: [GroundPoint; N],
     /// Which observations a track took in the last matching.
@@ -255,6 +276,7 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
         Self {
             grid: VoteGrid::new(),
             obs: [Vec::new(), Vec::new()],
+            ahead: [Vec::new(), Vec::new()],
             prev: [GroundPoint::ORIGIN; N],
             used: [[false; F]; 2],
             regression: [0.0; 5],
@@ -356,15 +378,19 @@ pub struct VoteOutcome {
 impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, GRID> {
     /// Backprojects the corners seen at body attitude `at` into `self.obs`.
     pub fn observe(&mut self, corners: &Corners<F>, at: Seen) {
-        for (side, heap) in self.obs.iter_mut().zip([&corners.left, &corners.right]) {
+        let sides = self.obs.iter_mut().zip(self.ahead.iter_mut());
+        for ((side, ahead), heap) in sides.zip([&corners.left, &corners.right]) {
             side.clear();
+            ahead.clear();
             for c in heap.iter() {
                 let pixel = c.pixel();
                 if let Some(ground) = backproject(at, pixel) {
                     // Cannot overflow: as many observations as corners.
                     let _ = side.push(Observation { ground, pixel });
+                    let _ = ahead.push(ground);
                 }
             }
+            sort_by_ahead(ahead);
         }
     }
 
@@ -390,7 +416,7 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
         let spread = Spread::new(cfg, sharp);
         let Self {
             grid,
-            obs,
+            ahead,
             prev,
             track_votes,
             trig,
@@ -401,8 +427,20 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
             // A turn of at most max_turn moves the point by at most this much, plus the drive.
             let slack = (radius + reach) * max_turn + tolerance_m;
             let var_p = spread.range_variance(p);
-            for o in obs[0].iter().chain(obs[1].iter()) {
-                let c = &o.ground;
+            // The observations whose range can join the track: x in [p.x - hi, p.x - lo] with
+            // the slack (and a centimetre for rounding, the exact test follows).
+            let (near_m, far_m) = (
+                p.x_m - window.distance_hi_m - slack - 0.01,
+                p.x_m - window.distance_lo_m + slack + 0.01,
+            );
+            let candidates = ahead.iter().flat_map(|side| {
+                let from = side.partition_point(|c| c.x_m < near_m);
+                side.get(from..)
+                    .unwrap_or_default()
+                    .iter()
+                    .take_while(move |c| c.x_m <= far_m)
+            });
+            for c in candidates {
                 let dx = p.x_m - c.x_m;
                 if dx < window.distance_lo_m - slack
                     || dx > window.distance_hi_m + slack
@@ -641,6 +679,16 @@ mod tests {
                 y_m: -2.5 + 5.0 * next(),
             })
             .collect()
+    }
+
+    #[test]
+    fn sort_by_ahead_orders_nearest_first() {
+        let mut points = scene(40);
+        let mut expected = points.clone();
+        expected.sort_by(|a, b| a.x_m.total_cmp(&b.x_m));
+        sort_by_ahead(&mut points);
+        assert_eq!(points, expected);
+        sort_by_ahead(&mut points[..0]);
     }
 
     /// Tracks at `points` (seen level) and the corners where `motion` moves them, seen with the
