@@ -57,6 +57,20 @@ impl Motion {
         }
     }
 
+    /// The weighted mean of this motion (weight `self_weight`) and `other` (weight
+    /// `other_weight`), component by component; `self` when the weights sum to 0.
+    pub fn weighted_mean(self, self_weight: f32, other: Motion, other_weight: f32) -> Motion {
+        let total = self_weight + other_weight;
+        if total <= 0.0 {
+            return self;
+        }
+        let mean = |a: f32, b: f32| (a * self_weight + b * other_weight) / total;
+        Motion {
+            heading_change_rad: mean(self.heading_change_rad, other.heading_change_rad),
+            distance_m: mean(self.distance_m, other.distance_m),
+        }
+    }
+
     /// Where a point fixed on the ground, at `p` in the vehicle frame at the arc's start, lies in
     /// the vehicle frame at its end.
     pub fn move_point(&self, p: GroundPoint) -> GroundPoint {
@@ -182,6 +196,24 @@ mod tests {
         (a.x_m - b.x_m).abs() < tol
             && (a.y_m - b.y_m).abs() < tol
             && wrap_angle_rad(a.heading_rad - b.heading_rad).abs() < tol
+    }
+
+    #[test]
+    fn weighted_mean_weighs_each_motion_by_its_weight() {
+        let vote = Motion {
+            heading_change_rad: 0.03,
+            distance_m: 0.6,
+        };
+        let prior = Motion {
+            heading_change_rad: 0.01,
+            distance_m: 0.9,
+        };
+        // Three votes to one: three quarters of the way from the prior to the vote.
+        let m = vote.weighted_mean(3.0, prior, 1.0);
+        assert!((m.heading_change_rad - 0.025).abs() < 1e-7);
+        assert!((m.distance_m - 0.675).abs() < 1e-6);
+        assert_eq!(vote.weighted_mean(1.0, prior, 0.0), vote);
+        assert_eq!(vote.weighted_mean(0.0, prior, 0.0), vote);
     }
 
     #[test]

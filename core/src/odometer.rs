@@ -269,8 +269,9 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
         // 4. Fall back to steady state where too few features agree (paper §5).
         let trusted =
             voted.motion.is_some() && quality.inlier_ratio >= self.config.config().min_inlier_ratio;
-        let motion = match voted.motion {
-            Some(m) if trusted => m,
+        let motion = match (voted.motion, prediction) {
+            (Some(m), Some(p)) if trusted => self.weigh(m, voted.matched, p),
+            (Some(m), None) if trusted => m,
             _ => prediction.unwrap_or(Motion::ZERO),
         };
         quality.fallback = !trusted;
@@ -319,6 +320,19 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
             }
             Some(previous_us) => Ok(Some(timestamp_us - previous_us)),
             None => Ok(None),
+        }
+    }
+
+    /// The frame's motion from its trusted vote `voted`, supported by `matched` tracks, and the
+    /// prediction: the default method weighs the prediction as `prior_matches` tracks, the
+    /// paper's takes the vote.
+    fn weigh(&self, voted: Motion, matched: usize, prediction: Motion) -> Motion {
+        let cfg = self.config.config();
+        match cfg.method {
+            Method::PitchVote => {
+                voted.weighted_mean(matched as f32, prediction, cfg.pitch_vote.prior_matches)
+            }
+            Method::Paper => voted,
         }
     }
 
@@ -381,6 +395,7 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
                     (pv.heading_half_rad * grow).min(heading_cap),
                     (pv.distance_half_m * grow).min(distance_cap),
                 )
+                .short_of_stop(m, pv.distance_half_m)
             }
         };
         let outcome = self.pitch_vote.estimate(

@@ -30,6 +30,22 @@ impl MotionWindow {
         }
     }
 
+    /// The same window, its distance range kept from reaching a stop further than the window
+    /// `centre +- distance_half_m` does: on the side facing zero it ends no nearer than half
+    /// the centre's distance. A window widened after fallbacks would otherwise take in standing
+    /// still, where a vehicle ahead driving at our speed (its corners still in the image) votes
+    /// with every corner it has and holds the estimate there.
+    pub fn short_of_stop(self, centre: Motion, distance_half_m: f32) -> Self {
+        let d = centre.distance_m;
+        let mut w = self;
+        if d > 0.0 {
+            w.distance_lo_m = w.distance_lo_m.max((d - distance_half_m).min(0.5 * d));
+        } else if d < 0.0 {
+            w.distance_hi_m = w.distance_hi_m.min((d + distance_half_m).max(0.5 * d));
+        }
+        w
+    }
+
     /// Heading change at the centre of heading bin `i` (fractional bins allowed).
     pub fn heading_at(&self, i: f32, grid: usize) -> f32 {
         self.heading_lo_rad + (i + 0.5) * (self.heading_hi_rad - self.heading_lo_rad) / grid as f32
@@ -303,6 +319,33 @@ impl<const GRID: usize> VoteGrid<GRID> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_widened_window_stops_short_of_standing_still() {
+        let ahead = Motion {
+            heading_change_rad: 0.0,
+            distance_m: 0.6,
+        };
+        // Widened four times: 0.6 +- 0.6 would take in standing still; it ends at 0.3.
+        let w = MotionWindow::around(ahead, 0.02, 0.6).short_of_stop(ahead, 0.15);
+        assert_eq!((w.distance_lo_m, w.distance_hi_m), (0.3, 1.2));
+        // Unwidened, the window is kept as it is, even where it reaches a stop.
+        let w = MotionWindow::around(ahead, 0.02, 0.15).short_of_stop(ahead, 0.15);
+        assert!((w.distance_lo_m - 0.45).abs() < 1e-6);
+        let slow = Motion {
+            heading_change_rad: 0.0,
+            distance_m: 0.1,
+        };
+        let w = MotionWindow::around(slow, 0.02, 0.15).short_of_stop(slow, 0.15);
+        assert!((w.distance_lo_m + 0.05).abs() < 1e-6);
+        // Reversing: the mirror image.
+        let back = Motion {
+            heading_change_rad: 0.0,
+            distance_m: -0.6,
+        };
+        let w = MotionWindow::around(back, 0.02, 0.6).short_of_stop(back, 0.15);
+        assert_eq!((w.distance_lo_m, w.distance_hi_m), (-1.2, -0.3));
+    }
 
     #[test]
     fn peak_is_the_centre_of_gravity_around_the_highest_bin() {

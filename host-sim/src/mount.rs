@@ -165,6 +165,8 @@ pub struct OdometerSection {
     pub absolute_gain: f32,
     /// Default method: time constant of the pitch's return to level, seconds (0: never).
     pub pitch_settle_s: f32,
+    /// Default method: how many matched tracks the previous motion weighs as (0: none).
+    pub prior_matches: f32,
 }
 
 impl Default for OdometerSection {
@@ -197,6 +199,7 @@ impl Default for OdometerSection {
             max_roll_change_steps: pv.max_roll_change_steps,
             absolute_gain: pv.absolute_gain,
             pitch_settle_s: pv.pitch_settle_s,
+            prior_matches: pv.prior_matches,
         }
     }
 }
@@ -328,6 +331,7 @@ impl MountFile {
                 max_roll_change_steps: o.max_roll_change_steps,
                 absolute_gain: o.absolute_gain,
                 pitch_settle_s: o.pitch_settle_s,
+                prior_matches: o.prior_matches,
                 ..PitchVoteSettings::default()
             },
             min_inlier_ratio: o.min_inlier_ratio,
