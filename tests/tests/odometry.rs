@@ -74,11 +74,31 @@ fn kitti_like_with_suspension_motion() {
     // The acceptance figures (t_err <= 3%, r_err <= 0.01 deg/m over the 400-frame drive) come
     // from scripts/eval-synthetic; over this drive's single 100 m segment the bounds are looser:
     // a per-frame heading error of sd 0.06-0.08 deg walks about 0.8 deg in 110 frames, so one
-    // segment's r_err alone is 0.008 deg/m give or take as much.
-    let d = drive("kitti-like", &["suspension"], 130, MethodName::Default);
-    let r = &d.report;
-    assert!(r.t_err_pct.is_some_and(|t| t <= 6.0), "{r:#?}");
-    assert!(r.r_err_deg_per_m.is_some_and(|e| e <= 0.02), "{r:#?}");
+    // segment's r_err alone is 0.008 deg/m give or take as much. A run is one draw (a vote
+    // decides between near-equal peaks, and a millimetre of mount height sends it down another
+    // path: on this drive r_err went from 0.001 to 0.021 deg/m over -2..+2 mm), so the bounds
+    // hold for the mean of five runs, the mount height moved by -2..+2 mm.
+    let dir = tempfile::tempdir().unwrap();
+    let sc = Scenario::load("kitti-like", &["suspension".to_string()]).unwrap();
+    simulate(&sc, dir.path(), 1, Some(130), false).unwrap();
+    let seq = Sequence::open(&sequence_dir(dir.path())).unwrap();
+    let truth = read_poses(&poses_path(dir.path())).unwrap();
+    let reports: Vec<Report> = (-2..=2)
+        .map(|mm| {
+            let mut mount = mount_for(&seq, None).unwrap();
+            mount.mount.height_m += mm as f32 * 1e-3;
+            let run = run_sequence(&seq, &mount, Some(MethodName::Default), None, None, false);
+            evaluate(&truth, &run.unwrap().poses).unwrap()
+        })
+        .collect();
+    let mean = |f: fn(&Report) -> Option<f64>| {
+        reports.iter().map(|r| f(r).unwrap()).sum::<f64>() / reports.len() as f64
+    };
+    let (t, r) = (mean(|r| r.t_err_pct), mean(|r| r.r_err_deg_per_m));
+    assert!(
+        t <= 6.0 && r <= 0.015,
+        "mean t_err {t:.2}%, r_err {r:.4} deg/m: {reports:#?}"
+    );
 }
 
 #[test]
