@@ -200,14 +200,11 @@ mod tests {
 
     #[test]
     fn weighted_mean_weighs_each_motion_by_its_weight() {
-        let vote = Motion {
-            heading_change_rad: 0.03,
-            distance_m: 0.6,
+        let motion = |heading_change_rad, distance_m| Motion {
+            heading_change_rad,
+            distance_m,
         };
-        let prior = Motion {
-            heading_change_rad: 0.01,
-            distance_m: 0.9,
-        };
+        let (vote, prior) = (motion(0.03, 0.6), motion(0.01, 0.9));
         // Three votes to one: three quarters of the way from the prior to the vote.
         let m = vote.weighted_mean(3.0, prior, 1.0);
         assert!((m.heading_change_rad - 0.025).abs() < 1e-7);
