@@ -101,7 +101,7 @@ enum Command {
         /// supplies it).
         #[arg(long)]
         out: PathBuf,
-        /// Most odometry runs over the section.
+        /// Most mounts tried (each costs five odometry runs over the section, at heights -2..+2 mm).
         #[arg(long, default_value_t = 150)]
         max_runs: usize,
     },
@@ -340,7 +340,7 @@ fn main() -> Result<()> {
             let poses = read_poses(&gt)?;
             let section = frames.unwrap_or(0..seq.frames);
             let bar = ProgressBar::new(max_runs as u64).with_style(
-                ProgressStyle::with_template("calibrating {bar:40} {pos}/{len} runs {msg}")
+                ProgressStyle::with_template("calibrating {bar:40} {pos}/{len} mounts {msg}")
                     .expect("valid template"),
             );
             let cal = calibrate(
@@ -357,7 +357,7 @@ fn main() -> Result<()> {
             )?;
             bar.finish_and_clear();
             println!(
-                "frames {}..{} of {}: cost (short-segment t_err % + 100 x r_err deg/m) {:.3} -> {:.3} in {} runs, {:.1} s",
+                "frames {}..{} of {}: cost (short-segment t_err % + 100 x r_err deg/m, mean of 5 heights) {:.3} -> {:.3}, {} mounts tried, {:.1} s",
                 section.start,
                 section.end,
                 seq_dir.display(),
