@@ -266,7 +266,8 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
         } else {
             voted.matched as f32 / detected as f32
         };
-        // 4. Fall back to steady state where too few features agree (paper §5).
+        // 4. Weigh a trusted vote against the prediction; fall back to steady state where too few
+        // features agree (paper §5).
         let trusted =
             voted.motion.is_some() && quality.inlier_ratio >= self.config.config().min_inlier_ratio;
         let motion = match (voted.motion, prediction) {

@@ -329,9 +329,10 @@ mod tests {
         // Widened four times: 0.6 +- 0.6 would take in standing still; it ends at 0.3.
         let w = MotionWindow::around(ahead, 0.02, 0.6).short_of_stop(ahead, 0.15);
         assert_eq!((w.distance_lo_m, w.distance_hi_m), (0.3, 1.2));
-        // Unwidened, the window is kept as it is, even where it reaches a stop.
+        // Unwidened, the window is kept as it is...
         let w = MotionWindow::around(ahead, 0.02, 0.15).short_of_stop(ahead, 0.15);
         assert!((w.distance_lo_m - 0.45).abs() < 1e-6);
+        // ...even where it reaches a stop.
         let slow = Motion {
             heading_change_rad: 0.0,
             distance_m: 0.1,
