@@ -3,6 +3,7 @@
 //! of `scripts/eval-synthetic` (which render the whole courses) to keep CI fast; the bounds are
 //! the engine's acceptance bounds.
 
+use roadvo_sim::calibrate::HEIGHT_SPREAD_MM;
 use roadvo_sim::eval::{Report, evaluate};
 use roadvo_sim::kitti::{Sequence, read_poses};
 use roadvo_sim::mount::MethodName;
@@ -19,17 +20,28 @@ struct Drive {
 
 /// Renders a drive and runs each of `methods` over it.
 fn drives(scenario: &str, overlays: &[&str], frames: usize, methods: &[MethodName]) -> Vec<Drive> {
+    let runs: Vec<(MethodName, f32)> = methods.iter().map(|&m| (m, 0.0)).collect();
+    drives_at(scenario, overlays, frames, &runs)
+}
+
+/// Renders a drive and runs it once for each (method, millimetres added to the mount's height).
+fn drives_at(
+    scenario: &str,
+    overlays: &[&str],
+    frames: usize,
+    runs: &[(MethodName, f32)],
+) -> Vec<Drive> {
     let dir = std::rc::Rc::new(tempfile::tempdir().unwrap());
     let overlays: Vec<String> = overlays.iter().map(|s| s.to_string()).collect();
     let sc = Scenario::load(scenario, &overlays).unwrap();
     simulate(&sc, dir.path(), 1, Some(frames), false).unwrap();
     let seq_dir = sequence_dir(dir.path());
     let seq = Sequence::open(&seq_dir).unwrap();
-    let mount = mount_for(&seq, None).unwrap();
     let truth = read_poses(&poses_path(dir.path())).unwrap();
-    methods
-        .iter()
-        .map(|&method| {
+    runs.iter()
+        .map(|&(method, height_mm)| {
+            let mut mount = mount_for(&seq, None).unwrap();
+            mount.mount.height_m += height_mm * 1e-3;
             let run = run_sequence(&seq, &mount, Some(method), None, None, false).unwrap();
             let report = evaluate(&truth, &run.poses).unwrap();
             Drive {
@@ -77,19 +89,11 @@ fn kitti_like_with_suspension_motion() {
     // segment's r_err alone is 0.008 deg/m give or take as much. A run is one draw (a vote
     // decides between near-equal peaks, and a millimetre of mount height sends it down another
     // path: on this drive r_err went from 0.001 to 0.021 deg/m over -2..+2 mm), so the bounds
-    // hold for the mean of five runs, the mount height moved by -2..+2 mm.
-    let dir = tempfile::tempdir().unwrap();
-    let sc = Scenario::load("kitti-like", &["suspension".to_string()]).unwrap();
-    simulate(&sc, dir.path(), 1, Some(130), false).unwrap();
-    let seq = Sequence::open(&sequence_dir(dir.path())).unwrap();
-    let truth = read_poses(&poses_path(dir.path())).unwrap();
-    let reports: Vec<Report> = (-2..=2)
-        .map(|mm| {
-            let mut mount = mount_for(&seq, None).unwrap();
-            mount.mount.height_m += mm as f32 * 1e-3;
-            let run = run_sequence(&seq, &mount, Some(MethodName::Default), None, None, false);
-            evaluate(&truth, &run.unwrap().poses).unwrap()
-        })
+    // hold for the mean of five runs, the mount height moved by -2..+2 mm (the calibration's).
+    let runs = HEIGHT_SPREAD_MM.map(|mm| (MethodName::Default, mm));
+    let reports: Vec<Report> = drives_at("kitti-like", &["suspension"], 130, &runs)
+        .into_iter()
+        .map(|d| d.report)
         .collect();
     let mean = |f: fn(&Report) -> Option<f64>| {
         reports.iter().map(|r| f(r).unwrap()).sum::<f64>() / reports.len() as f64
