@@ -114,6 +114,15 @@ pub struct PitchVoteSettings {
     /// estimate nearly all the way, one that a vehicle ahead hiding the road leaves to a handful
     /// moves it part of the way (see [`crate::pitch_vote`], "Weighing").
     pub prior_matches: f32,
+    /// Where the vehicle's arc is drawn from: a pivot this many s^2/m times the speed squared
+    /// ahead of the rear-axle centre (0: the rear axle, the paper's Ackermann model). A car's
+    /// rear tyres slip outwards in a bend as they carry its side force, so the point that
+    /// moves along the arc is not the rear axle but one ahead of it, by
+    /// `mass * (front axle to centre of mass) / (wheelbase * rear cornering stiffness) * v^2`
+    /// (the linear single-track model; 0.003 to 0.007 s^2/m for a mid-size car, 0.4 m at
+    /// 40 km/h). An arc drawn from the rear axle turns that sideways slip into a turn too small
+    /// (see [`crate::pitch_vote`], step 3). A property of the vehicle, like the mount.
+    pub pivot_s2_per_m: f32,
     /// Heading window half width with no previous motion, radians (4 deg: 40 deg/s at 10 frames/s;
     /// KITTI 01 starts in a bend at 2.5 deg a frame).
     pub startup_heading_half_rad: f32,
@@ -142,6 +151,7 @@ impl Default for PitchVoteSettings {
             absolute_gain: 0.2,
             pitch_settle_s: 0.5,
             prior_matches: 3.0,
+            pivot_s2_per_m: 0.0,
             startup_heading_half_rad: 4.0 * DEG,
             startup_distance_max_m: 2.6,
         }
@@ -386,6 +396,7 @@ impl ValidConfig {
                     absolute_gain: 0.0,
                     pitch_settle_s: 0.0,
                     prior_matches: 0.0,
+                    pivot_s2_per_m: 0.0,
                     startup_heading_half_rad: 0.0,
                     startup_distance_max_m: 0.0,
                 },
@@ -677,6 +688,7 @@ impl Config {
             (pv.absolute_gain, "pitch_vote.absolute_gain"),
             (pv.pitch_settle_s, "pitch_vote.pitch_settle_s"),
             (pv.prior_matches, "pitch_vote.prior_matches"),
+            (pv.pivot_s2_per_m, "pitch_vote.pivot_s2_per_m"),
         ];
         match not_negative.iter().find(|(v, _)| *v < 0.0) {
             Some(&(_, field)) => bad(field),
@@ -740,6 +752,7 @@ impl Config {
             (self.pitch_vote.absolute_gain, "pitch_vote.absolute_gain"),
             (self.pitch_vote.pitch_settle_s, "pitch_vote.pitch_settle_s"),
             (self.pitch_vote.prior_matches, "pitch_vote.prior_matches"),
+            (self.pitch_vote.pivot_s2_per_m, "pitch_vote.pivot_s2_per_m"),
             (
                 self.pitch_vote.startup_heading_half_rad,
                 "pitch_vote.startup_heading_half_rad",
@@ -1041,18 +1054,27 @@ pub(crate) mod tests {
                 field: "pitch_vote.pitch_settle_s",
             },
         );
-        check(
-            &|c| c.pitch_vote.prior_matches = f32::NAN,
-            ConfigError::NonFinite {
-                field: "pitch_vote.prior_matches",
-            },
-        );
-        check(
-            &|c| c.pitch_vote.prior_matches = -1.0,
-            ConfigError::PitchVoteOutOfRange {
-                field: "pitch_vote.prior_matches",
-            },
-        );
+        // Settings that may be 0 but not negative, nor infinite or NaN.
+        type Field = fn(&mut Config) -> &mut f32;
+        let not_negative: [(Field, &str); 2] = [
+            (
+                |c| &mut c.pitch_vote.prior_matches,
+                "pitch_vote.prior_matches",
+            ),
+            (
+                |c| &mut c.pitch_vote.pivot_s2_per_m,
+                "pitch_vote.pivot_s2_per_m",
+            ),
+        ];
+        for (value, field) in not_negative {
+            for bad in [f32::NAN, f32::INFINITY] {
+                check(&|c| *value(c) = bad, ConfigError::NonFinite { field });
+            }
+            check(
+                &|c| *value(c) = -0.001,
+                ConfigError::PitchVoteOutOfRange { field },
+            );
+        }
         check(
             &|c| c.min_inlier_ratio = 1.5,
             ConfigError::RatioOutOfRange {

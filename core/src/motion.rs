@@ -134,6 +134,22 @@ impl Pose2 {
             y_m: self.y_m + s * p.x_m + c * p.y_m,
         }
     }
+
+    /// The pose of the point `ahead_m` ahead along the heading (itself for 0).
+    pub fn moved_ahead(&self, ahead_m: f32) -> Self {
+        if ahead_m == 0.0 {
+            return *self;
+        }
+        let p = self.transform_point(GroundPoint {
+            x_m: ahead_m,
+            y_m: 0.0,
+        });
+        Self {
+            x_m: p.x_m,
+            y_m: p.y_m,
+            ..*self
+        }
+    }
 }
 
 /// A KITTI pose: the 3x4 matrix `[R | t]` of camera 0 at some frame in the frame of camera 0 at
@@ -323,6 +339,18 @@ mod tests {
         fn pose_inverse_undoes_pose(x in -100.0f32..100.0, y in -100.0f32..100.0, h in -3.1f32..3.1) {
             let p = Pose2 { x_m: x, y_m: y, heading_rad: h };
             prop_assert!(close(p.compose(&p.inverse()), Pose2::IDENTITY, 1e-4));
+        }
+
+        #[test]
+        fn moving_a_pose_ahead_and_back_returns_it(
+            x in -100.0f32..100.0, y in -100.0f32..100.0, h in -3.1f32..3.1, d in -2.0f32..2.0,
+        ) {
+            let p = Pose2 { x_m: x, y_m: y, heading_rad: h };
+            let ahead = p.moved_ahead(d);
+            prop_assert!((libm::hypotf(ahead.x_m - x, ahead.y_m - y) - d.abs()).abs() < 1e-4);
+            prop_assert_eq!(ahead.heading_rad, h);
+            prop_assert!(close(ahead.moved_ahead(-d), p, 1e-4));
+            prop_assert_eq!(p.moved_ahead(0.0), p);
         }
 
         #[test]

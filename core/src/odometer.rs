@@ -6,7 +6,7 @@ use crate::harris::{self, Corners, HarrisScratch};
 use crate::motion::{Motion, Pose2};
 use crate::paper::PaperScratch;
 use crate::pitch_vote::{AttitudeDrift, AttitudeIndex, PitchVoteScratch, backproject};
-use crate::projection::{Homography, RollMap};
+use crate::projection::{GroundPoint, Homography, RollMap};
 use crate::tracks::{Observation, Spawn, Tracks};
 use crate::vote::MotionWindow;
 use core::fmt;
@@ -88,7 +88,8 @@ pub struct Quality {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Estimate {
-    /// Motion since the previous frame.
+    /// Motion since the previous frame: the arc of the rear-axle centre, or of the pivot
+    /// ahead of it where the configuration has one (`pivot_s2_per_m`).
     pub motion: Motion,
     /// Pose of the vehicle in the vehicle frame of the first frame.
     pub pose: Pose2,
@@ -111,6 +112,9 @@ struct State {
     attitude: AttitudeIndex,
     /// The default method's attitude corrections waiting to be applied.
     drift: AttitudeDrift,
+    /// The default method's pivot: how far ahead of the rear axle the tracks and `pose` are
+    /// measured from, metres.
+    pivot_m: f32,
 }
 
 /// The odometer: every bit of state, sized by its parameters.
@@ -159,8 +163,13 @@ impl State {
             pitch_steps: 0.0,
             roll_steps: 0.0,
         },
+        pivot_m: 0.0,
     };
 }
+
+/// Largest pivot ahead of the rear axle, metres (a car's at 90 km/h is about 2 m ahead: past
+/// its centre of mass the linear model has stopped holding).
+const MAX_PIVOT_M: f32 = 1.5;
 
 /// Largest number of window doublings after consecutive fallbacks.
 const MAX_WIDEN: u8 = 3;
@@ -211,7 +220,7 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
 
     /// The vehicle's pose after the last frame, in the vehicle frame of the first frame.
     pub fn pose(&self) -> Pose2 {
-        self.state.pose
+        self.axle_pose()
     }
 
     /// The configuration in use.
@@ -247,7 +256,7 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
             self.state.last_timestamp_us = Some(timestamp_us);
             return Ok(Estimate {
                 motion: Motion::ZERO,
-                pose: self.state.pose,
+                pose: self.axle_pose(),
                 quality,
             });
         };
@@ -289,7 +298,7 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
         self.state.last_timestamp_us = Some(timestamp_us);
         Ok(Estimate {
             motion,
-            pose: self.state.pose,
+            pose: self.axle_pose(),
             quality,
         })
     }
@@ -364,6 +373,11 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
         )
     }
 
+    /// The rear axle's pose: the state's is the pivot's (see `pivot_s2_per_m`).
+    fn axle_pose(&self) -> Pose2 {
+        self.state.pose.moved_ahead(-self.state.pivot_m)
+    }
+
     /// Makes tracks of every corner (nominal attitude); returns the refused ones.
     fn start_tracks(&mut self) -> u16 {
         let (h, roll) = self.seen();
@@ -399,6 +413,15 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
                 .short_of_stop(m, pv.distance_half_m)
             }
         };
+        let pivot_m = match prediction {
+            Some(m) if interval_us > 0 => {
+                let v = m.distance_m / (interval_us as f32 * 1e-6);
+                (pv.pivot_s2_per_m * v * v).min(MAX_PIVOT_M)
+            }
+            _ => self.state.pivot_m,
+        };
+        move_pivot(&mut self.tracks, &mut self.state, pivot_m);
+        self.pitch_vote.set_pivot(pivot_m);
         let outcome = self.pitch_vote.estimate(
             &self.config,
             self.tracks.as_slice(),
@@ -483,13 +506,28 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
         }
         let cfg = &self.config;
         let max_misses = cfg.config().track_max_misses;
+        let pivot_m = self.state.pivot_m;
         // Tracks that left the window (passed under the camera, drifted aside) cannot be seen.
-        self.tracks
-            .update(motion, observed, max_misses, |g| cfg.in_window(g));
+        self.tracks.update(motion, observed, max_misses, |g| {
+            cfg.in_window(GroundPoint {
+                x_m: g.x_m + pivot_m,
+                y_m: g.y_m,
+            })
+        });
         match cfg.config().method {
             Method::PitchVote => spawn_all(&mut self.tracks, self.pitch_vote.unmatched()),
             Method::Paper => spawn_all(&mut self.tracks, self.paper.unmatched()),
         }
+    }
+}
+
+/// Measures the tracks and the pose from `pivot_m` ahead of the rear axle from now on.
+fn move_pivot<const N: usize>(tracks: &mut Tracks<N>, state: &mut State, pivot_m: f32) {
+    let ahead_m = pivot_m - state.pivot_m;
+    if ahead_m != 0.0 {
+        tracks.shift_ahead(-ahead_m);
+        state.pose = state.pose.moved_ahead(ahead_m);
+        state.pivot_m = pivot_m;
     }
 }
 

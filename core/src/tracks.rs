@@ -114,6 +114,13 @@ impl<const N: usize> Tracks<N> {
             .retain(|t| t.misses <= max_misses && keep(t.ground));
     }
 
+    /// Moves every track `dx_m` ahead (a change of the vehicle frame's origin along its axis).
+    pub fn shift_ahead(&mut self, dx_m: f32) {
+        for t in self.items.iter_mut() {
+            t.ground.x_m += dx_m;
+        }
+    }
+
     /// Starts a track at an observation (see the module docs for the policy when full).
     pub fn spawn(&mut self, o: Observation) -> Spawn {
         let track = Track {
@@ -184,6 +191,17 @@ mod tests {
         // Tracks failing `keep` (say, behind the camera) go.
         t.update(m, &[], 3, |g| g.x_m > 8.5);
         assert_eq!(t.len(), 0);
+    }
+
+    #[test]
+    fn shifting_the_origin_moves_every_track_and_nothing_else() {
+        let mut t = Tracks::<4>::default();
+        t.spawn(seen(8.0));
+        t.spawn(seen(10.0));
+        t.shift_ahead(-0.25);
+        let s = t.as_slice();
+        assert_eq!((s[0].ground, s[1].ground), (at(7.75), at(9.75)));
+        assert_eq!((s[0].misses, s[0].pixel), (0, Some(Pixel::default())));
     }
 
     #[test]

@@ -167,6 +167,9 @@ pub struct OdometerSection {
     pub pitch_settle_s: f32,
     /// Default method: how many matched tracks the previous motion weighs as (0: none).
     pub prior_matches: f32,
+    /// Default method: the pivot the vehicle's arc is drawn from lies this many s^2/m times the
+    /// speed squared ahead of the rear axle (tyre slip; 0: the rear axle).
+    pub pivot_s2_per_m: f32,
 }
 
 impl Default for OdometerSection {
@@ -200,6 +203,7 @@ impl Default for OdometerSection {
             absolute_gain: pv.absolute_gain,
             pitch_settle_s: pv.pitch_settle_s,
             prior_matches: pv.prior_matches,
+            pivot_s2_per_m: pv.pivot_s2_per_m,
         }
     }
 }
@@ -332,6 +336,7 @@ impl MountFile {
                 absolute_gain: o.absolute_gain,
                 pitch_settle_s: o.pitch_settle_s,
                 prior_matches: o.prior_matches,
+                pivot_s2_per_m: o.pivot_s2_per_m,
                 ..PitchVoteSettings::default()
             },
             min_inlier_ratio: o.min_inlier_ratio,

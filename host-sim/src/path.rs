@@ -164,7 +164,7 @@ pub struct SpeedKnot {
 }
 
 /// Speed at distance `s` along the path, m/s.
-fn speed_at(knots: &[SpeedKnot], s: f64) -> f64 {
+pub fn speed_at(knots: &[SpeedKnot], s: f64) -> f64 {
     match knots.iter().position(|k| k.at_m > s) {
         None => knots.last().map_or(0.0, |k| k.speed_m_s),
         Some(0) => knots[0].speed_m_s,

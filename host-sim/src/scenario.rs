@@ -185,6 +185,17 @@ pub struct Crown {
     pub right_slope: f64,
 }
 
+/// Tyre slip: in a bend the rear tyres carry their share of the side force by slipping
+/// outwards, so the point of the body that follows the path lies ahead of the rear axle, by
+/// `pivot_s2_per_m` times the speed squared (the linear single-track model). Without it the
+/// rear axle follows the path (the paper's Ackermann model).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Slip {
+    /// How far ahead of the rear axle the point on the path lies per (m/s)^2, s^2/m.
+    pub pivot_s2_per_m: f64,
+}
+
 /// Errors added to the true mount in the mount file written beside the images.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -242,13 +253,16 @@ pub struct Scenario {
     /// Calibration error written into mount.toml.
     #[serde(default)]
     pub calibration_error: MountError,
+    /// Tyre slip of the vehicle.
+    #[serde(default)]
+    pub slip: Option<Slip>,
 }
 
 /// The built-in scenarios' names.
 pub const BUILT_IN: [&str; 2] = ["s-course", "kitti-like"];
 
 /// The built-in overlays' names: partial scenarios merged over a scenario (`--overlay`).
-pub const BUILT_IN_OVERLAYS: [&str; 2] = ["suspension", "traffic"];
+pub const BUILT_IN_OVERLAYS: [&str; 3] = ["suspension", "traffic", "slip"];
 
 /// Merges `overlay` into `base`: tables merge key by key, arrays of tables (`[[vehicle]]`)
 /// are appended to, anything else is replaced.
@@ -308,6 +322,7 @@ impl Scenario {
             let overlay_text = text(o, &|n| match n {
                 "suspension" => Some(include_str!("../scenarios/suspension.toml")),
                 "traffic" => Some(include_str!("../scenarios/traffic.toml")),
+                "slip" => Some(include_str!("../scenarios/slip.toml")),
                 _ => None,
             })?;
             let overlay: toml::Table =
@@ -345,6 +360,11 @@ impl Scenario {
             if !(v.length_m > 0.0 && v.width_m > 0.0 && v.height_m > 0.0) {
                 bail!("[[vehicle]] {}: sizes must be positive", i + 1);
             }
+        }
+        if let Some(slip) = &self.slip
+            && !(slip.pivot_s2_per_m.is_finite() && slip.pivot_s2_per_m >= 0.0)
+        {
+            bail!("[slip]: pivot_s2_per_m must be finite and >= 0");
         }
         if let Some(k) = &self.kerb
             && (k.to_m.is_nan() || k.to_m <= k.from_m)
@@ -409,6 +429,17 @@ mod tests {
         let twice = Scenario::load("kitti-like", &["traffic".into(), "traffic".into()]).unwrap();
         assert_eq!(twice.vehicles.len(), 2 * s.vehicles.len());
         assert!(Scenario::load("kitti-like", &["nope".into()]).is_err());
+        let slip = Scenario::load("kitti-like", &["slip".into()]).unwrap();
+        assert_eq!(slip.slip.map(|s| s.pivot_s2_per_m), Some(0.005));
+        assert_eq!(plain.slip, None);
+    }
+
+    #[test]
+    fn a_negative_slip_is_refused() {
+        let mut text = Scenario::built_in_text("kitti-like").unwrap().to_string();
+        text.push_str("\n[slip]\npivot_s2_per_m = -0.001\n");
+        let err = Scenario::parse(&text).unwrap_err();
+        assert!(err.to_string().contains("[slip]"), "{err}");
     }
 
     #[test]

@@ -13,7 +13,7 @@
 //! planar odometer scores zero; the body's suspension motion is a disturbance, not truth.
 
 use crate::kitti::{self, Pose};
-use crate::path::{DistanceClock, Path};
+use crate::path::{DistanceClock, Path, WorldPose, speed_at};
 use crate::render::{BoxState, FrameState, Scene};
 use crate::scenario::Scenario;
 use anyhow::{Context, Result, bail};
@@ -126,8 +126,18 @@ fn plan(scenario: &Scenario, path: &Path, frames: Option<usize>, seed: u64) -> R
                     }
                 })
                 .collect();
+            // With tyre slip the path is the pivot's; the rear axle is behind it.
+            let on_path = path.pose_at(s);
+            let behind_m = scenario.slip.as_ref().map_or(0.0, |slip| {
+                slip.pivot_s2_per_m * speed_at(&scenario.speed, s).powi(2)
+            });
+            let (x_m, y_m) = on_path.to_world(-behind_m, 0.0);
             FrameState {
-                pose: path.pose_at(s),
+                pose: WorldPose {
+                    x_m,
+                    y_m,
+                    ..on_path
+                },
                 attitude,
                 boxes,
             }
