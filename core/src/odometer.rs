@@ -167,9 +167,10 @@ impl State {
     };
 }
 
-/// Largest pivot ahead of the rear axle, metres (a car's at 90 km/h is about 2 m ahead: past
-/// its centre of mass the linear model has stopped holding).
-const MAX_PIVOT_M: f32 = 1.5;
+/// Largest pivot ahead of the rear axle, metres: a guard against a runaway speed, not part of
+/// the model (whose pivot grows with the speed squared as long as the tyres stay linear; at
+/// 0.004 s^2/m it binds above 127 km/h).
+const MAX_PIVOT_M: f32 = 5.0;
 
 /// Largest number of window doublings after consecutive fallbacks.
 const MAX_WIDEN: u8 = 3;
