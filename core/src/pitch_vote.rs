@@ -62,10 +62,10 @@
 //!    the rear axle has to turn the sideways slip it cannot take into a smaller turn. Measured
 //!    (`scripts/turns`, `scripts/kitti-spread`): KITTI 02's bends at 40-50 km/h came out 7%
 //!    short from the rear axle, both ways (-141.0 deg for -152.1 right, 78.9 for 85.6 left),
-//!    2% with the pivot at 0.004 s^2/m (-148.3, 84.2; t_err 10.4% to 9.2%, r_err 0.058 to
-//!    0.046 deg/m), while 05's slow streets stayed within their spread; on the kitti-like
+//!    2% with the pivot at 0.004 s^2/m (-149.9, 83.4; t_err 10.4% to 9.5%, r_err 0.058 to
+//!    0.044 deg/m), while 05's slow streets stayed within their spread; on the kitti-like
 //!    drive with the simulator's slip at 0.005, 1.94% and 0.0165 deg/m from the rear axle,
-//!    0.37% and 0.0014 from the true pivot. For a heading
+//!    0.27% and 0.0016 from the true pivot. For a heading
 //!    change alpha the arc model says `p - R(alpha) c` is the chord, of direction alpha/2: its
 //!    component along alpha/2 gives the distance `v = l / sinc(alpha/2)`, the component across
 //!    it is the residual. The residual is nearly linear in alpha, so the heading bins where it is
@@ -216,16 +216,18 @@ struct Spread {
     /// Metres of range a pixel per square metre of `x^2 + h^2` (0: sharp, no tent).
     per_px: f32,
     height_sq_m2: f32,
-    /// The camera's look direction and position on the ground, vehicle frame: a point's range
-    /// is measured along the one from the other (as [`ValidConfig::window_coords`] does, its
-    /// sine and cosine taken once here rather than for every pair).
+    /// The camera's look direction and position on the ground, in the frame the points are
+    /// measured in (from the pivot): a point's range is measured along the one from the other
+    /// (as [`ValidConfig::window_coords`] does, its sine and cosine taken once here rather than
+    /// for every pair).
     cos_yaw: f32,
     sin_yaw: f32,
     camera: GroundPoint,
 }
 
 impl Spread {
-    fn new(cfg: &ValidConfig, sharp: bool) -> Self {
+    /// For points measured from `pivot_m` ahead of the rear axle.
+    fn new(cfg: &ValidConfig, sharp: bool, pivot_m: f32) -> Self {
         let c = cfg.config();
         let m = &c.mount;
         let sigma = if sharp {
@@ -239,7 +241,7 @@ impl Spread {
             cos_yaw: libm::cosf(m.yaw_rad),
             sin_yaw: libm::sinf(m.yaw_rad),
             camera: GroundPoint {
-                x_m: m.x_m,
+                x_m: m.x_m - pivot_m,
                 y_m: m.y_m,
             },
         }
@@ -466,7 +468,7 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
         let max_turn = window.heading_lo_rad.abs().max(window.heading_hi_rad.abs());
         let reach = window.distance_lo_m.abs().max(window.distance_hi_m.abs());
         let last = GRID - 1;
-        let spread = Spread::new(cfg, sharp);
+        let spread = Spread::new(cfg, sharp, self.pivot_m);
         let Self {
             grid,
             ahead,
@@ -633,7 +635,7 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
         observed: &mut [Option<Observation>],
     ) -> usize {
         let t = trig(motion.heading_change_rad);
-        let spread = Spread::new(cfg, false);
+        let spread = Spread::new(cfg, false, self.pivot_m);
         self.used = [[false; F]; 2];
         self.regression = [0.0; 5];
         let mut matched = 0;
