@@ -6,7 +6,7 @@ use crate::harris::{self, Corners, HarrisScratch};
 use crate::motion::{Motion, Pose2};
 use crate::paper::PaperScratch;
 use crate::pitch_vote::{AttitudeDrift, AttitudeIndex, PitchVoteScratch, backproject};
-use crate::projection::{GroundPoint, Homography, RollMap};
+use crate::projection::{Homography, RollMap};
 use crate::tracks::{Observation, Spawn, Tracks};
 use crate::vote::MotionWindow;
 use core::fmt;
@@ -510,10 +510,7 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
         let pivot_m = self.state.pivot_m;
         // Tracks that left the window (passed under the camera, drifted aside) cannot be seen.
         self.tracks.update(motion, observed, max_misses, |g| {
-            cfg.in_window(GroundPoint {
-                x_m: g.x_m + pivot_m,
-                y_m: g.y_m,
-            })
+            cfg.in_window(g.moved_ahead(pivot_m))
         });
         match cfg.config().method {
             Method::PitchVote => spawn_all(&mut self.tracks, self.pitch_vote.unmatched()),

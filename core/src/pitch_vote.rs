@@ -366,10 +366,7 @@ pub fn backproject(at: Seen, px: Pixel) -> Option<GroundPoint> {
 
 /// A ground point measured from `pivot_m` ahead of the rear axle.
 fn from_pivot(g: Option<GroundPoint>, pivot_m: f32) -> Option<GroundPoint> {
-    g.map(|g| GroundPoint {
-        x_m: g.x_m - pivot_m,
-        y_m: g.y_m,
-    })
+    g.map(|g| g.moved_ahead(-pivot_m))
 }
 
 /// Hypotheses within `reach` of `previous` among `len`.
@@ -766,10 +763,6 @@ mod tests {
         attitude: Attitude,
         pivot_m: f32,
     ) -> (std::vec::Vec<Track>, Corners<64>) {
-        let about = |p: GroundPoint, dx_m: f32| GroundPoint {
-            x_m: p.x_m + dx_m,
-            y_m: p.y_m,
-        };
         let c = cfg.config();
         let h = Homography::new(&c.intrinsics, &c.mount, attitude).unwrap();
         let nominal = cfg.projection().nominal;
@@ -778,12 +771,14 @@ mod tests {
         for (i, p) in points.iter().enumerate() {
             let before = nominal.project(*p).unwrap();
             tracks.push(Track {
-                ground: about(nominal.backproject(before).unwrap(), -pivot_m),
+                ground: nominal.backproject(before).unwrap().moved_ahead(-pivot_m),
                 pixel: Some(before),
                 misses: 0,
                 age: 1,
             });
-            let moved = about(motion.move_point(about(*p, -pivot_m)), pivot_m);
+            let moved = motion
+                .move_point(p.moved_ahead(-pivot_m))
+                .moved_ahead(pivot_m);
             let px = h.project(moved).unwrap();
             let c = Corner {
                 response: 1000 + i as i32,
@@ -876,10 +871,7 @@ mod tests {
         let from_axle: std::vec::Vec<Track> = tracks
             .iter()
             .map(|t| Track {
-                ground: GroundPoint {
-                    x_m: t.ground.x_m + pivot_m,
-                    ..t.ground
-                },
+                ground: t.ground.moved_ahead(pivot_m),
                 ..*t
             })
             .collect();

@@ -107,6 +107,15 @@ pub struct GroundPoint {
 impl GroundPoint {
     /// The rear-axle centre.
     pub const ORIGIN: Self = Self { x_m: 0.0, y_m: 0.0 };
+
+    /// The point `dx_m` further ahead: the same point measured from an origin `dx_m` further
+    /// back along the vehicle's axis.
+    pub fn moved_ahead(self, dx_m: f32) -> Self {
+        Self {
+            x_m: self.x_m + dx_m,
+            ..self
+        }
+    }
 }
 
 /// An image position, pixels (u right, v down; pixel centres at integer coordinates).

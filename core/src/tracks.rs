@@ -117,7 +117,7 @@ impl<const N: usize> Tracks<N> {
     /// Moves every track `dx_m` ahead (a change of the vehicle frame's origin along its axis).
     pub fn shift_ahead(&mut self, dx_m: f32) {
         for t in self.items.iter_mut() {
-            t.ground.x_m += dx_m;
+            t.ground = t.ground.moved_ahead(dx_m);
         }
     }
 
