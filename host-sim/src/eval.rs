@@ -6,6 +6,12 @@
 //! segment is `E = (P'_first^-1 P'_last)^-1 (P_first^-1 P_last)`; its translation norm and
 //! rotation angle, divided by the segment length, are pooled over all segments.
 //!
+//! A monocular method's error is often mostly one of scale (a mount height or pitch slightly
+//! off makes every distance a few percent short), which its users correct before comparing
+//! shapes; so the report also gives the ratio of the estimated path length to the true one, and
+//! the translation errors with the estimate's positions divided by that ratio (not KITTI
+//! figures: the KITTI metric takes the estimate as it is).
+//!
 //! A planar method cannot follow the road's climb, so [`evaluate_planar`] also scores both
 //! trajectories in the ground plane only (camera-0 positions in x-z and heading about the
 //! vertical), and reports the planar floor: what the ground truth's own planar motion scores on
@@ -72,6 +78,12 @@ pub struct Report {
     pub short_segments: usize,
     /// Short metric per length.
     pub short_per_length: Vec<LengthRow>,
+    /// Estimated path length over the ground truth's (1: the right scale).
+    pub path_ratio: f64,
+    /// KITTI translation error with the estimate's positions divided by `path_ratio`, percent.
+    pub scaled_t_err_pct: Option<f64>,
+    /// Short-segment translation error with the positions divided by `path_ratio`, percent.
+    pub scaled_short_t_err_pct: Option<f64>,
     /// Distance between the final positions over the path length, percent.
     pub end_drift_pct: f64,
     /// Rotation angle between the final orientations, degrees.
@@ -219,11 +231,33 @@ pub fn evaluate(gt: &[Pose], est: &[Pose]) -> Result<Report> {
     let dist = distances(&gt);
     let kitti = metric(&gt, &est, &dist, &LENGTHS_M);
     let short = metric(&gt, &est, &dist, &SHORT_LENGTHS_M);
+    let path_length_m = *dist.last().expect("two poses");
+    let est_path_m = *distances(&est).last().expect("two poses");
+    let path_ratio = if path_length_m > 0.0 {
+        est_path_m / path_length_m
+    } else {
+        1.0
+    };
+    let (scaled_kitti, scaled_short) = if path_ratio > 0.0 {
+        let scaled: Vec<Matrix4<f64>> = est
+            .iter()
+            .map(|m| {
+                let mut m = *m;
+                m.fixed_view_mut::<3, 1>(0, 3).unscale_mut(path_ratio);
+                m
+            })
+            .collect();
+        (
+            metric(&gt, &scaled, &dist, &LENGTHS_M).t_err_pct,
+            metric(&gt, &scaled, &dist, &SHORT_LENGTHS_M).t_err_pct,
+        )
+    } else {
+        (None, None)
+    };
     let (g, e) = (
         gt.last().expect("two poses"),
         est.last().expect("two poses"),
     );
-    let path_length_m = *dist.last().expect("two poses");
     let end_gap = (g.fixed_view::<3, 1>(0, 3) - e.fixed_view::<3, 1>(0, 3)).norm();
     let end_rot = rigid_inverse(e) * g;
     Ok(Report {
@@ -237,6 +271,9 @@ pub fn evaluate(gt: &[Pose], est: &[Pose]) -> Result<Report> {
         short_r_err_deg_per_m: short.r_err_deg_per_m,
         short_segments: short.segments,
         short_per_length: short.per_length,
+        path_ratio,
+        scaled_t_err_pct: scaled_kitti,
+        scaled_short_t_err_pct: scaled_short,
         end_drift_pct: if path_length_m > 0.0 {
             100.0 * end_gap / path_length_m
         } else {
@@ -283,14 +320,23 @@ pub fn format_report(r: &Report) -> String {
         s += &table(&r.short_per_length);
     }
     s += &format!(
+        "\nScale: the estimated path is {:.3} of the true one; with its positions divided by that: \
+         KITTI t_err {} %, short t_err {} % (not KITTI figures)\n",
+        r.path_ratio,
+        opt(r.scaled_t_err_pct, 2),
+        opt(r.scaled_short_t_err_pct, 2)
+    );
+    s += &format!(
         "\nEnd point: drift {:.2} % of the path, heading error {:.2} deg\n",
         r.end_drift_pct, r.end_heading_err_deg
     );
     if let Some(p) = &r.planar {
         s += &format!(
-            "\nIn the ground plane only (x-z positions, heading): KITTI t_err {} %, r_err {} deg/m; \
-             short t_err {} %, r_err {} deg/m; end drift {:.2} %, heading error {:.2} deg\n",
+            "\nIn the ground plane only (x-z positions, heading): KITTI t_err {} % ({} % at the true \
+             scale), r_err {} deg/m; short t_err {} %, r_err {} deg/m; end drift {:.2} %, heading \
+             error {:.2} deg\n",
             opt(p.t_err_pct, 2),
+            opt(p.scaled_t_err_pct, 2),
             opt(p.r_err_deg_per_m, 4),
             opt(p.short_t_err_pct, 2),
             opt(p.short_r_err_deg_per_m, 4),
@@ -346,6 +392,14 @@ mod tests {
         assert!(pooled > 5.0 && pooled < 5.005, "{pooled}");
         assert!(r.r_err_deg_per_m.unwrap().abs() < 1e-9);
         assert!((r.end_drift_pct - 5.0).abs() < 1e-9);
+        // All of it is scale: divided by the path ratio, nothing is left.
+        assert!((r.path_ratio - 1.05).abs() < 1e-9, "{}", r.path_ratio);
+        assert!(
+            r.scaled_t_err_pct.unwrap() < 1e-9,
+            "{:?}",
+            r.scaled_t_err_pct
+        );
+        assert!(r.scaled_short_t_err_pct.unwrap() < 1e-9);
     }
 
     #[test]
@@ -368,6 +422,9 @@ mod tests {
         assert!((got - want).abs() < 2e-4 * want + 1e-6, "{got} vs {want}");
         let got_short = r.short_r_err_deg_per_m.unwrap();
         assert!((got_short - 0.01).abs() < 3e-4, "{got_short}");
+        // The path is as long as the truth's: the scale takes none of the error away.
+        assert!((r.path_ratio - 1.0).abs() < 1e-12);
+        assert!((r.scaled_t_err_pct.unwrap() - r.t_err_pct.unwrap()).abs() < 1e-9);
     }
 
     #[test]
