@@ -78,8 +78,9 @@ pub struct Report {
     pub short_segments: usize,
     /// Short metric per length.
     pub short_per_length: Vec<LengthRow>,
-    /// Estimated path length over the ground truth's (1: the right scale).
-    pub path_ratio: f64,
+    /// Estimated path length over the ground truth's (1: the right scale); `None` when the
+    /// ground truth does not move.
+    pub path_ratio: Option<f64>,
     /// KITTI translation error with the estimate's positions divided by `path_ratio`, percent.
     pub scaled_t_err_pct: Option<f64>,
     /// Short-segment translation error with the positions divided by `path_ratio`, percent.
@@ -233,17 +234,13 @@ pub fn evaluate(gt: &[Pose], est: &[Pose]) -> Result<Report> {
     let short = metric(&gt, &est, &dist, &SHORT_LENGTHS_M);
     let path_length_m = *dist.last().expect("two poses");
     let est_path_m = *distances(&est).last().expect("two poses");
-    let path_ratio = if path_length_m > 0.0 {
-        est_path_m / path_length_m
-    } else {
-        1.0
-    };
-    let (scaled_kitti, scaled_short) = if path_ratio > 0.0 {
+    let path_ratio = (path_length_m > 0.0).then(|| est_path_m / path_length_m);
+    let (scaled_kitti, scaled_short) = if let Some(ratio) = path_ratio.filter(|&r| r > 0.0) {
         let scaled: Vec<Matrix4<f64>> = est
             .iter()
             .map(|m| {
                 let mut m = *m;
-                m.fixed_view_mut::<3, 1>(0, 3).unscale_mut(path_ratio);
+                m.fixed_view_mut::<3, 1>(0, 3).unscale_mut(ratio);
                 m
             })
             .collect();
@@ -320,9 +317,9 @@ pub fn format_report(r: &Report) -> String {
         s += &table(&r.short_per_length);
     }
     s += &format!(
-        "\nScale: the estimated path is {:.3} of the true one; with its positions divided by that: \
+        "\nScale: the estimated path is {} of the true one; with its positions divided by that: \
          KITTI t_err {} %, short t_err {} % (not KITTI figures)\n",
-        r.path_ratio,
+        opt(r.path_ratio, 3),
         opt(r.scaled_t_err_pct, 2),
         opt(r.scaled_short_t_err_pct, 2)
     );
@@ -393,7 +390,8 @@ mod tests {
         assert!(r.r_err_deg_per_m.unwrap().abs() < 1e-9);
         assert!((r.end_drift_pct - 5.0).abs() < 1e-9);
         // All of it is scale: divided by the path ratio, nothing is left.
-        assert!((r.path_ratio - 1.05).abs() < 1e-9, "{}", r.path_ratio);
+        let ratio = r.path_ratio.unwrap();
+        assert!((ratio - 1.05).abs() < 1e-9, "{ratio}");
         assert!(
             r.scaled_t_err_pct.unwrap() < 1e-9,
             "{:?}",
@@ -423,8 +421,17 @@ mod tests {
         let got_short = r.short_r_err_deg_per_m.unwrap();
         assert!((got_short - 0.01).abs() < 3e-4, "{got_short}");
         // The path is as long as the truth's: the scale takes none of the error away.
-        assert!((r.path_ratio - 1.0).abs() < 1e-12);
+        assert!((r.path_ratio.unwrap() - 1.0).abs() < 1e-12);
         assert!((r.scaled_t_err_pct.unwrap() - r.t_err_pct.unwrap()).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_truth_that_does_not_move_has_no_scale() {
+        let gt = straight(20, 0.0);
+        let r = evaluate(&gt, &straight(20, 0.1)).unwrap();
+        assert_eq!(r.path_ratio, None);
+        assert_eq!((r.scaled_t_err_pct, r.scaled_short_t_err_pct), (None, None));
+        assert!(format_report(&r).contains("path is - of the true one"));
     }
 
     #[test]
