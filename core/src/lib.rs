@@ -18,7 +18,7 @@
 //! let intrinsics = Intrinsics { fx_px: 718.856, fy_px: 718.856, cx_px: 607.19, cy_px: 185.22 };
 //! let mount = Mount { x_m: 1.2, y_m: 0.0, height_m: 1.65, yaw_rad: 0.0, pitch_rad: 0.0, roll_rad: 0.0 };
 //! let config = Config::with_defaults(image, intrinsics, mount).validate()?;
-//! // All state in one value: 36 KiB with the default capacities.
+//! // All state in one value: 45 KiB with the default capacities.
 //! let mut odometer: Odometer = Odometer::new(config)?;
 //! let pixels = vec![0u8; 1241 * 376]; // a camera buffer
 //! let frame = SliceFrame::new(&pixels, 1241, 376, 1241).expect("buffer holds the frame");
@@ -43,6 +43,8 @@
 //!   a KITTI camera pose (paper §2.2).
 //! - [`frame`]: the [`Frame`] trait through which images arrive, a row at a time.
 //! - [`harris`]: integer Harris corners inside the ground window, the strongest per side.
+//! - [`comoving`]: the corners that stand still in the image while the vehicle moves (a vehicle
+//!   ahead at our speed), set aside before the default method's vote.
 //! - [`vote`]: the motion window and the integer accumulator over it (paper §2.3).
 //! - [`pitch_vote`]: the default method, a joint vote over pitch, heading change and distance.
 //! - [`paper`]: the paper's method as written, for comparison.
@@ -54,6 +56,7 @@
 #[cfg(test)]
 extern crate std;
 
+pub mod comoving;
 pub mod config;
 pub mod frame;
 pub mod harris;

@@ -1,12 +1,13 @@
 //! The per-frame flow: [`Odometer::process`] reads top-down as the method's steps.
 
+use crate::comoving::Comoving;
 use crate::config::{Method, ValidConfig, pitch_hypothesis_rad, roll_hypothesis_rad};
 use crate::frame::Frame;
 use crate::harris::{self, Corners, HarrisScratch};
 use crate::motion::{Motion, Pose2};
 use crate::paper::PaperScratch;
 use crate::pitch_vote::{AttitudeDrift, AttitudeIndex, PitchVoteScratch, backproject};
-use crate::projection::{Homography, RollMap};
+use crate::projection::{Homography, Pixel, RollMap};
 use crate::tracks::{Observation, Spawn, Tracks};
 use crate::vote::MotionWindow;
 use core::fmt;
@@ -82,6 +83,9 @@ pub struct Quality {
     pub roll_rad: f32,
     /// Observations that found no room in the full track pool.
     pub tracks_refused: u16,
+    /// Corners set aside as moving with the vehicle: still in the image where the road would
+    /// have moved (default method; see [`crate::comoving`]). Counted in `features_detected`.
+    pub features_comoving: u16,
 }
 
 /// The result of one frame.
@@ -115,6 +119,9 @@ struct State {
     /// The default method's pivot: how far ahead of the rear axle the tracks and `pose` are
     /// measured from, metres.
     pivot_m: f32,
+    /// The estimated speed's running mean over about [`STEADY_SPEED_S`], metres a second; None
+    /// before a motion was estimated.
+    steady_speed_m_s: Option<f32>,
 }
 
 /// The odometer: every bit of state, sized by its parameters.
@@ -136,6 +143,7 @@ pub struct Odometer<
     tracks: Tracks<MAX_TRACKS>,
     corners: Corners<MAX_FEATURES>,
     harris: HarrisScratch,
+    comoving: Comoving<MAX_FEATURES>,
     pitch_vote: PitchVoteScratch<MAX_TRACKS, MAX_FEATURES, GRID>,
     paper: PaperScratch<MAX_FEATURES, GRID>,
     /// Track i's observation in this frame, if matched.
@@ -164,6 +172,7 @@ impl State {
             roll_steps: 0.0,
         },
         pivot_m: 0.0,
+        steady_speed_m_s: None,
     };
 }
 
@@ -174,6 +183,12 @@ const MAX_PIVOT_M: f32 = 5.0;
 
 /// Largest number of window doublings after consecutive fallbacks.
 const MAX_WIDEN: u8 = 3;
+
+/// Time constant of the steady speed, seconds: the default method's distance window always
+/// takes in the steady speed's distance, so that frames whose vote wanders (a vehicle ahead
+/// hiding the road) cannot walk the window away from the true speed, which changes by little
+/// in a second on a road (see the pitch vote's step 1).
+const STEADY_SPEED_S: f32 = 1.0;
 
 impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
     Odometer<MAX_TRACKS, MAX_FEATURES, GRID>
@@ -190,6 +205,7 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
         tracks: Tracks::new(),
         corners: Corners::new(),
         harris: HarrisScratch::new(),
+        comoving: Comoving::new(),
         pitch_vote: PitchVoteScratch::new(),
         paper: PaperScratch::new(),
         observed: [None; MAX_TRACKS],
@@ -233,6 +249,7 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
     pub fn reset(&mut self) {
         self.state = State::start(&self.config);
         self.tracks.clear();
+        self.comoving.clear();
     }
 
     /// Processes one frame taken at `timestamp_us` (microseconds, increasing).
@@ -250,8 +267,13 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
             tracks: self.tracks.len() as u16,
             ..Quality::default()
         };
+        let prediction = interval_us.and_then(|dt| self.predicted_motion(dt));
+        // 2. Set aside the corners that move with us (default method).
+        if matches!(self.config.config().method, Method::PitchVote) {
+            quality.features_comoving = self.set_aside_comoving(prediction);
+        }
         let Some(interval_us) = interval_us else {
-            // 2. Start-up: the first frame's corners become tracks.
+            // 3. Start-up: the first frame's corners become tracks.
             quality.startup = true;
             quality.tracks_refused = self.start_tracks();
             self.state.last_timestamp_us = Some(timestamp_us);
@@ -261,8 +283,7 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
                 quality,
             });
         };
-        // 3. Predict the window of plausible motions, vote, match (default or paper method).
-        let prediction = self.predicted_motion(interval_us);
+        // 4. Vote in the window of plausible motions, match (default or paper method).
         let voted = match self.config.config().method {
             Method::PitchVote => self.vote_pitch(prediction, interval_us),
             Method::Paper => self.vote_paper(prediction, interval_us),
@@ -276,7 +297,7 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
         } else {
             voted.matched as f32 / detected as f32
         };
-        // 4. Weigh a trusted vote against the prediction; fall back to steady state where too few
+        // 5. Weigh a trusted vote against the prediction; fall back to steady state where too few
         // features agree (paper §5).
         let trusted =
             voted.motion.is_some() && quality.inlier_ratio >= self.config.config().min_inlier_ratio;
@@ -291,10 +312,11 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
         } else {
             (self.state.widen + 1).min(MAX_WIDEN)
         };
-        // 5. Update the tracks (paper §2.3), 6. integrate.
+        // 6. Update the tracks (paper §2.3), 7. integrate.
         quality.tracks_refused = self.update_tracks(motion, trusted);
         self.state.pose = self.state.pose.advance(motion);
         self.state.motion = Some(motion);
+        self.state.steady_speed_m_s = Some(self.steady_speed(motion, interval_us));
         self.state.last_interval_us = interval_us;
         self.state.last_timestamp_us = Some(timestamp_us);
         Ok(Estimate {
@@ -362,6 +384,16 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
         })
     }
 
+    /// The steady speed after a frame of `motion` over `interval_us`, metres a second.
+    fn steady_speed(&self, motion: Motion, interval_us: u64) -> f32 {
+        let dt_s = interval_us as f32 * 1e-6;
+        let v = motion.distance_m / dt_s;
+        match self.state.steady_speed_m_s {
+            Some(steady) => steady + (dt_s / STEADY_SPEED_S).min(1.0) * (v - steady),
+            None => v,
+        }
+    }
+
     /// How the last frame was seen: its attitude hypothesis's homography and roll map (the
     /// nominal attitude for the paper's method, whose hypotheses stay level).
     fn seen(&self) -> (Homography, RollMap) {
@@ -372,6 +404,27 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
             h.unwrap_or(self.config.projection().nominal),
             roll.unwrap_or(RollMap::IDENTITY),
         )
+    }
+
+    /// Finds the corners that move with us and hides them from the vote; returns how many. A
+    /// point on the road at a pixel would move as the prediction moves it, seen at the last
+    /// frame's attitude.
+    fn set_aside_comoving(&mut self, prediction: Option<Motion>) -> u16 {
+        let (h, _) = self.seen();
+        let flow_px = prediction.map(|m| {
+            move |px: Pixel| {
+                let moved = h.backproject(px).and_then(|g| h.project(m.move_point(g)));
+                moved.map(|q| (q.u_px - px.u_px, q.v_px - px.v_px))
+            }
+        });
+        let k = &self.config.config().intrinsics;
+        let principal = Pixel {
+            u_px: k.cx_px,
+            v_px: k.cy_px,
+        };
+        let n = self.comoving.find(&self.corners, principal, flow_px);
+        self.pitch_vote.hide(&self.comoving);
+        n
     }
 
     /// The rear axle's pose: the state's is the pivot's (see `pivot_s2_per_m`).
@@ -406,12 +459,14 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
                 let grow = f32::from(1u8 << self.state.widen);
                 let heading_cap = pv.startup_heading_half_rad.max(pv.heading_half_rad);
                 let distance_cap = pv.startup_distance_max_m.max(pv.distance_half_m);
-                MotionWindow::around(
-                    m,
-                    (pv.heading_half_rad * grow).min(heading_cap),
-                    (pv.distance_half_m * grow).min(distance_cap),
-                )
-                .short_of_stop(m, pv.distance_half_m)
+                let half = (pv.distance_half_m * grow).min(distance_cap);
+                let w =
+                    MotionWindow::around(m, (pv.heading_half_rad * grow).min(heading_cap), half)
+                        .short_of_stop(m, pv.distance_half_m);
+                match self.state.steady_speed_m_s {
+                    Some(v) => w.taking_in(v * interval_us as f32 * 1e-6, half),
+                    None => w,
+                }
             }
         };
         let pivot_m = match prediction {

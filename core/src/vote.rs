@@ -46,6 +46,15 @@ impl MotionWindow {
         w
     }
 
+    /// The same window, its distance range stretched to take in `distance_m +- half_m`.
+    pub fn taking_in(self, distance_m: f32, half_m: f32) -> Self {
+        Self {
+            distance_lo_m: self.distance_lo_m.min(distance_m - half_m),
+            distance_hi_m: self.distance_hi_m.max(distance_m + half_m),
+            ..self
+        }
+    }
+
     /// Heading change at the centre of heading bin `i` (fractional bins allowed).
     pub fn heading_at(&self, i: f32, grid: usize) -> f32 {
         self.heading_lo_rad + (i + 0.5) * (self.heading_hi_rad - self.heading_lo_rad) / grid as f32
@@ -346,6 +355,25 @@ mod tests {
         };
         let w = MotionWindow::around(back, 0.02, 0.6).short_of_stop(back, 0.15);
         assert_eq!((w.distance_lo_m, w.distance_hi_m), (-1.2, -0.3));
+    }
+
+    #[test]
+    fn taking_in_a_distance_stretches_only_the_distance_range() {
+        let centre = Motion {
+            heading_change_rad: 0.01,
+            distance_m: 0.5,
+        };
+        let w = MotionWindow::around(centre, 0.02, 0.15);
+        let longer = w.taking_in(0.7, 0.15);
+        assert_eq!((longer.distance_lo_m, longer.distance_hi_m), (0.35, 0.85));
+        let shorter = w.taking_in(0.3, 0.15);
+        assert!((shorter.distance_lo_m - 0.15).abs() < 1e-6);
+        assert_eq!(shorter.distance_hi_m, w.distance_hi_m);
+        assert_eq!(w.taking_in(0.5, 0.1), w);
+        assert_eq!(
+            (longer.heading_lo_rad, longer.heading_hi_rad),
+            (w.heading_lo_rad, w.heading_hi_rad)
+        );
     }
 
     #[test]

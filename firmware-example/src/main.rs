@@ -130,7 +130,7 @@ fn replay(odometer: &mut Odometer) -> Result<(), Error> {
         let q = &e.quality;
         // The f32 bit patterns, for the comparison with the host (`roadvo run --trace`).
         defmt::println!(
-            "estimate {=u32} {=u32} {=u32} {=u32} {=u32} {=u32} {=u32} {=u32} {=u16} {=u16} {=u8}",
+            "estimate {=u32} {=u32} {=u32} {=u32} {=u32} {=u32} {=u32} {=u32} {=u16} {=u16} {=u8} {=u16}",
             index,
             e.motion.distance_m.to_bits(),
             e.motion.heading_change_rad.to_bits(),
@@ -141,7 +141,8 @@ fn replay(odometer: &mut Odometer) -> Result<(), Error> {
             q.inlier_ratio.to_bits(),
             q.features_detected,
             q.tracks_matched,
-            u8::from(q.fallback)
+            u8::from(q.fallback),
+            q.features_comoving
         );
         defmt::debug!("{}", e);
     }

@@ -142,7 +142,7 @@ pub fn timestamp_us(seq: &Sequence, i: usize) -> u64 {
 pub fn trace_line(frame: usize, e: &Estimate) -> String {
     let q = &e.quality;
     format!(
-        "estimate {frame} {} {} {} {} {} {} {} {} {} {}",
+        "estimate {frame} {} {} {} {} {} {} {} {} {} {} {}",
         e.motion.distance_m.to_bits(),
         e.motion.heading_change_rad.to_bits(),
         e.pose.x_m.to_bits(),
@@ -153,5 +153,6 @@ pub fn trace_line(frame: usize, e: &Estimate) -> String {
         q.features_detected,
         q.tracks_matched,
         u8::from(q.fallback),
+        q.features_comoving,
     )
 }

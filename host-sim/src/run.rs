@@ -32,6 +32,7 @@ struct QualityLine {
     pitch_rad: f32,
     roll_rad: f32,
     tracks_refused: u16,
+    features_comoving: u16,
 }
 
 /// What a run produced.
@@ -283,6 +284,7 @@ pub fn run_sequence(
                 pitch_rad: q.pitch_rad,
                 roll_rad: q.roll_rad,
                 tracks_refused: q.tracks_refused,
+                features_comoving: q.features_comoving,
             };
             writeln!(out, "{}", serde_json::to_string(&line)?)?;
         }

@@ -177,9 +177,20 @@ fn traffic_ahead_neither_stops_nor_jumps_the_estimate() {
         during < 0.6 * before,
         "inlier ratio {during:.2} in traffic, {before:.2} before"
     );
+    let clean = drive("kitti-like", &[], 140, MethodName::Default);
+    // The car's corners are set aside as moving with us (a dozen a frame), the road's all but
+    // never.
+    let set_aside = |d: &Drive, frames: std::ops::Range<usize>| -> u32 {
+        let each = frames.map(|i| u32::from(d.run.estimates[i].quality.features_comoving));
+        each.sum()
+    };
+    let (in_traffic, clean_drive) = (set_aside(&d, 100..120), set_aside(&clean, 0..140));
+    assert!(
+        in_traffic >= 5 * 20 && clean_drive <= 14,
+        "set aside: {in_traffic} corners in 20 frames of traffic, {clean_drive} in 140 clean"
+    );
     // Twice the clean drive's error; below 1% the short-segment figure of a 110 m drive is
     // within its own noise, so the clean figure counts as at least that.
-    let clean = drive("kitti-like", &[], 140, MethodName::Default);
     let (t, t_clean) = (
         d.report.short_t_err_pct.unwrap(),
         clean.report.short_t_err_pct.unwrap(),

@@ -1,0 +1,437 @@
+//! Corners that move with the vehicle: a vehicle ahead at our speed, dirt on the lens, the
+//! bonnet in the picture. They stand still in the image while the road under them moves.
+//!
+//! A vehicle driving ahead at our speed stands still in the image, and under a pitch hypothesis
+//! a few tenths of a degree off its corners (above the road, so backprojected far away) line up
+//! with motions slower or sharper than ours. Where it hides most of the ground window its
+//! corners outvote the road's few and can walk the estimate towards a stop, or out of a bend
+//! (the default method's weighing only slows the walk). But they betray themselves before any
+//! vote: each is found again in the next frame at nearly the same place in the image, all of
+//! them displaced alike by the change of the body's pitch and roll, where a point on the road
+//! would have moved by many pixels.
+//!
+//! Per frame, with a predicted motion:
+//! 1. Each corner's displacement from the nearest corner of the previous frame, if under
+//!    [`REACH_PX`] in both axes, goes into a histogram of whole pixels (the nearest only, so
+//!    that a dense patch of the road's corners, each near several of the last frame's, cannot
+//!    fill a bin by itself). A roll of the body turns the image about the principal point,
+//!    which displaces a still object's corners unlike each other (by 4.7 pixels 300 pixels
+//!    apart for 0.9 deg, the kitti-like suspension's largest change a frame), so the previous
+//!    corners are first turned by each of a few roll changes ([`ROLL_STEPS`] each way by
+//!    [`ROLL_STEP_RAD`]), and the roll whose histogram has the fullest 3x3 bins wins. Those
+//!    bins are the frame's common displacement, if they hold at least [`MIN_CORNERS`].
+//! 2. A corner is *still* when some previous corner lies at a displacement in those bins from
+//!    it (any, not only the nearest: along a vehicle's edge the nearest is often the edge's
+//!    next corner) where a point on the road at its pixel would not have gone: at least
+//!    [`MIN_FLOW_PX`] from its predicted image motion. That spares the road's own corners when
+//!    their displacement happens to be the common one (a band of them at one range, all moving
+//!    alike): theirs is what the road would do.
+//! 3. A still corner moves with us, and is left out of the vote, the matches and the new
+//!    tracks, when the previous corner it came from was still too, or at once when at least
+//!    [`MIN_CORNERS_AT_ONCE`] corners share the common displacement. Among the road's corners a
+//!    neighbour at the common displacement is a coincidence that seldom repeats two frames
+//!    running; a vehicle cutting in is still from its second frame, and waiting for its third
+//!    let it pull the heading of a bend to zero in the frame between (measured on the
+//!    kitti-like traffic drives).
+//!
+//! A hidden corner still counts as detected, so the inlier ratio shows what it hid. Standing
+//! still ourselves, or before the first motion, nothing is set aside. On the kitti-like drive of
+//! seed 1 (`features_comoving` in `roadvo run --quality`): 237 corners set aside in the 20
+//! frames the car drives ahead, 9 in the 400 frames of the same drive without it.
+
+use crate::harris::Corners;
+use crate::projection::Pixel;
+
+/// Largest displacement between two frames, in each image axis, of a corner that stands still,
+/// pixels: a pitch change of 0.6 deg at KITTI's focal length.
+pub const REACH_PX: i32 = 8;
+/// Fewest still corners for them to be an object's. Among the road's corners a nearest
+/// neighbour lands at one displacement by chance a few at a time: the road's own displacements
+/// spread with each corner's range and lateral place.
+pub const MIN_CORNERS: u16 = 8;
+/// Still corners enough to be an object's in the first frame they stand still (see step 3).
+pub const MIN_CORNERS_AT_ONCE: u16 = 12;
+/// How far from its predicted place on the road, pixels, a still corner must be found: above
+/// the common displacement's tolerance (1.5 pixels each way) with room for the prediction's
+/// error.
+pub const MIN_FLOW_PX: f32 = 4.0;
+/// Roll changes between frames tried, each way.
+pub const ROLL_STEPS: i8 = 5;
+/// The roll step, radians: 0.2 deg, under a pixel at 300 pixels from the centre.
+pub const ROLL_STEP_RAD: f32 = 0.2 * core::f32::consts::PI / 180.0;
+
+/// Bins per axis of the displacement histogram.
+const BINS: usize = 2 * REACH_PX as usize + 1;
+
+/// The previous frame's corners and which of this frame's move with us. Holds between frames
+/// only the previous corners.
+#[derive(Clone, Debug)]
+pub struct Comoving<const F: usize> {
+    previous: Corners<F>,
+    /// Per side (left, right), in heap order: the previous corner stood still where the road
+    /// would have moved.
+    previous_still: [[bool; F]; 2],
+    /// Per side (left, right), in heap order: the corner moves with us.
+    hidden: [[bool; F]; 2],
+}
+
+impl<const F: usize> Default for Comoving<F> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// A displacement in the image, pixels: (columns right, rows down).
+type Shift = (f32, f32);
+
+/// Per side (left, right), in heap order: the previous frame's corners turned by a roll.
+type Turned<const F: usize> = [[Pixel; F]; 2];
+
+/// Per side (left, right), in heap order: each corner's displacement from its nearest
+/// previous corner, if within reach.
+type Shifts<const F: usize> = [[Option<Shift>; F]; 2];
+
+/// The bin of a displacement in the histogram, if within reach in both axes.
+fn bin(d: Shift) -> Option<(usize, usize)> {
+    let bin = |d: f32| {
+        let b = libm::roundf(d) as i32 + REACH_PX;
+        usize::try_from(b).ok().filter(|&b| b < BINS)
+    };
+    Some((bin(d.0)?, bin(d.1)?))
+}
+
+impl<const F: usize> Comoving<F> {
+    /// No previous frame; `const` so that an odometer can be a zero-initialised `static`.
+    pub const fn new() -> Self {
+        Self {
+            previous: Corners::new(),
+            previous_still: [[false; F]; 2],
+            hidden: [[false; F]; 2],
+        }
+    }
+
+    /// Forgets the previous frame.
+    pub fn clear(&mut self) {
+        *self = Self::new();
+    }
+
+    /// Finds this frame's corners that move with us (see the module docs), given the image's
+    /// `principal` point and `flow_px`: the image motion (columns, rows) of a point on the road
+    /// at a pixel under the predicted motion (`None` without a prediction: nothing is set
+    /// aside). Then remembers `corners` for the next frame. Returns how many were set aside.
+    pub fn find(
+        &mut self,
+        corners: &Corners<F>,
+        principal: Pixel,
+        flow_px: Option<impl Fn(Pixel) -> Option<(f32, f32)>>,
+    ) -> u16 {
+        let mut hidden = [[false; F]; 2];
+        let mut count = 0;
+        let mut still = [[false; F]; 2];
+        if let Some(flow_px) = flow_px {
+            // The roll change under which most corners stand still: (corners, roll, bin).
+            let mut best = (0, 0.0, (0, 0));
+            for k in -ROLL_STEPS..=ROLL_STEPS {
+                let roll_rad = f32::from(k) * ROLL_STEP_RAD;
+                let turned = self.turned(principal, roll_rad);
+                let (n, at) = common_shift(&self.nearest_shifts(corners, &turned));
+                if n > best.0 {
+                    best = (n, roll_rad, at);
+                }
+            }
+            let (n, roll_rad, common) = best;
+            let turned = self.turned(principal, roll_rad);
+            if n >= MIN_CORNERS {
+                let in_common = |d: Shift| {
+                    bin(d).is_some_and(|(i, j)| {
+                        i.abs_diff(common.0) <= 1 && j.abs_diff(common.1) <= 1
+                    })
+                };
+                let sides = hidden.iter_mut().zip(&mut still);
+                for ((hidden, still), side) in sides.zip([&corners.left, &corners.right]) {
+                    for ((h, st), c) in hidden.iter_mut().zip(still.iter_mut()).zip(side.iter()) {
+                        let c = c.pixel();
+                        let Some((du, dv)) = flow_px(c) else { continue };
+                        // Any previous corner will do, not only the nearest: along an edge the
+                        // nearest is often the edge's next corner.
+                        let mut was_still = false;
+                        for (d, was) in self.displacements(&turned, c) {
+                            // Found where the road would not have taken it.
+                            if in_common(d) && libm::hypotf(d.0 - du, d.1 - dv) >= MIN_FLOW_PX {
+                                *st = true;
+                                was_still |= was;
+                            }
+                        }
+                        *h = *st && (was_still || n >= MIN_CORNERS_AT_ONCE);
+                        count += u16::from(*h);
+                    }
+                }
+            }
+        }
+        self.previous.clone_from(corners);
+        self.previous_still = still;
+        self.hidden = hidden;
+        count
+    }
+
+    /// The previous corners turned by `roll_rad` about `principal`, per side in heap order.
+    fn turned(&self, principal: Pixel, roll_rad: f32) -> Turned<F> {
+        let mut turned = [[Pixel::default(); F]; 2];
+        let sides = turned
+            .iter_mut()
+            .zip([&self.previous.left, &self.previous.right]);
+        for (out, side) in sides {
+            for (o, p) in out.iter_mut().zip(side.iter()) {
+                let p = p.pixel();
+                let (x, y) = (p.u_px - principal.u_px, p.v_px - principal.v_px);
+                // Turned by a small angle: (x - roll y, y + roll x).
+                *o = Pixel {
+                    u_px: p.u_px - roll_rad * y,
+                    v_px: p.v_px + roll_rad * x,
+                };
+            }
+        }
+        turned
+    }
+
+    /// The displacements within reach of `c` from each `turned` previous corner, with whether
+    /// that corner stood still.
+    fn displacements<'a>(
+        &'a self,
+        turned: &'a Turned<F>,
+        c: Pixel,
+    ) -> impl Iterator<Item = (Shift, bool)> + 'a {
+        let lens = [self.previous.left.len(), self.previous.right.len()];
+        let sides = turned.iter().zip(lens).zip(&self.previous_still);
+        let each = sides.flat_map(|((side, n), still)| side.iter().take(n).zip(still));
+        let reach = REACH_PX as f32 + 0.5;
+        each.map(move |(p, &was_still)| ((c.u_px - p.u_px, c.v_px - p.v_px), was_still))
+            .filter(move |(d, _)| d.0.abs() < reach && d.1.abs() < reach)
+    }
+
+    /// Each corner's displacement from the nearest `turned` previous corner, if within reach.
+    fn nearest_shifts(&self, corners: &Corners<F>, turned: &Turned<F>) -> Shifts<F> {
+        let mut shifts = [[None; F]; 2];
+        for (side_shifts, side) in shifts.iter_mut().zip([&corners.left, &corners.right]) {
+            for (s, c) in side_shifts.iter_mut().zip(side.iter()) {
+                *s = self
+                    .displacements(turned, c.pixel())
+                    .map(|(d, _)| d)
+                    .min_by(|a, b| (a.0.abs() + a.1.abs()).total_cmp(&(b.0.abs() + b.1.abs())));
+            }
+        }
+        shifts
+    }
+}
+
+/// The 3x3 bins holding the most displacements: how many they hold and their centre bin.
+fn common_shift<const F: usize>(shifts: &Shifts<F>) -> (u16, (usize, usize)) {
+    let mut histogram = [[0u16; BINS]; BINS];
+    for (i, j) in shifts.iter().flatten().filter_map(|s| s.and_then(bin)) {
+        if let Some(cell) = histogram.get_mut(i).and_then(|row| row.get_mut(j)) {
+            *cell = cell.saturating_add(1);
+        }
+    }
+    let around = |i: usize, j: usize| -> u16 {
+        let rows = histogram
+            .iter()
+            .skip(i.saturating_sub(1))
+            .take(3 - usize::from(i == 0));
+        rows.map(|row| {
+            let cells = row
+                .iter()
+                .skip(j.saturating_sub(1))
+                .take(3 - usize::from(j == 0));
+            cells.fold(0u16, |s, &c| s.saturating_add(c))
+        })
+        .fold(0, u16::saturating_add)
+    };
+    let mut best = (0, (0, 0));
+    for i in 0..BINS {
+        for j in 0..BINS {
+            let n = around(i, j);
+            if n > best.0 {
+                best = (n, (i, j));
+            }
+        }
+    }
+    best
+}
+
+impl<const F: usize> Comoving<F> {
+    /// Whether corner `k` (heap order) of side `side` (0 left, 1 right) moves with us.
+    pub fn is_hidden(&self, side: usize, k: usize) -> bool {
+        self.hidden
+            .get(side)
+            .and_then(|s| s.get(k))
+            .copied()
+            .unwrap_or(false)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::harris::Corner;
+    use fixed::types::I16F16;
+    use std::vec::Vec;
+
+    /// A road flow function.
+    type Flow = fn(Pixel) -> Option<Shift>;
+
+    const PRINCIPAL: Pixel = Pixel {
+        u_px: 607.0,
+        v_px: 185.0,
+    };
+
+    /// Corners at `points` (u, v), alternately left and right.
+    fn corners(points: &[(f32, f32)]) -> Corners<32> {
+        let mut c = Corners::<32>::default();
+        for (i, &(u, v)) in points.iter().enumerate() {
+            let corner = Corner {
+                response: 1000 + i as i32,
+                v_px: I16F16::from_num(v),
+                u_px: I16F16::from_num(u),
+            };
+            let side = if i % 2 == 0 {
+                &mut c.left
+            } else {
+                &mut c.right
+            };
+            side.push(corner).unwrap();
+        }
+        c
+    }
+
+    /// The pixels of the hidden corners.
+    fn hidden(found: &Comoving<32>, c: &Corners<32>) -> Vec<(f32, f32)> {
+        let sides = [&c.left, &c.right].into_iter().enumerate();
+        sides
+            .flat_map(|(side, heap)| {
+                let kept = heap
+                    .iter()
+                    .enumerate()
+                    .filter(move |&(k, _)| found.is_hidden(side, k));
+                kept.map(|(_, c)| (c.pixel().u_px, c.pixel().v_px))
+            })
+            .collect()
+    }
+
+    /// Image motion of the road: a point moves away from the horizon, faster the lower it is
+    /// (a crude perspective, enough to make every road corner move its own way).
+    fn road_flow(px: Pixel) -> Option<(f32, f32)> {
+        let below = px.v_px - PRINCIPAL.v_px;
+        let k = 0.15 * below / 100.0;
+        Some((k * (px.u_px - PRINCIPAL.u_px), k * below))
+    }
+
+    /// `n` road corners spread over the lower image, pseudo-random but fixed.
+    fn road(n: usize, seed: u32) -> Vec<(f32, f32)> {
+        let mut x = seed;
+        let mut next = move || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            (x % 10_000) as f32 / 10_000.0
+        };
+        (0..n)
+            .map(|_| (100.0 + 1000.0 * next(), 240.0 + 130.0 * next()))
+            .collect()
+    }
+
+    /// Where the road's flow takes each corner.
+    fn flowed(points: &[(f32, f32)]) -> Vec<(f32, f32)> {
+        let step = |&(u, v): &(f32, f32)| {
+            let (du, dv) = road_flow(Pixel { u_px: u, v_px: v }).unwrap();
+            (u + du, v + dv)
+        };
+        points.iter().map(step).collect()
+    }
+
+    /// A vehicle's rear: a grid of `n` corners ahead, near the image centre.
+    fn vehicle(n: usize) -> Vec<(f32, f32)> {
+        (0..n)
+            .map(|i| (430.0 + 70.0 * (i % 6) as f32, 250.0 + 19.0 * (i / 6) as f32))
+            .collect()
+    }
+
+    /// Turns `points` by `roll_deg` about the principal point and shifts them by `(du, dv)`.
+    fn moved(points: &[(f32, f32)], roll_deg: f32, du: f32, dv: f32) -> Vec<(f32, f32)> {
+        let (s, c) = roll_deg.to_radians().sin_cos();
+        let turn = |&(u, v): &(f32, f32)| {
+            let (x, y) = (u - PRINCIPAL.u_px, v - PRINCIPAL.v_px);
+            (
+                PRINCIPAL.u_px + c * x - s * y + du,
+                PRINCIPAL.v_px + s * x + c * y + dv,
+            )
+        };
+        points.iter().map(turn).collect()
+    }
+
+    fn with(a: &[(f32, f32)], b: &[(f32, f32)]) -> Vec<(f32, f32)> {
+        a.iter().chain(b).copied().collect()
+    }
+
+    #[test]
+    fn a_vehicle_ahead_at_our_speed_is_set_aside_and_the_road_is_not() {
+        let (ground, car) = (road(18, 7), vehicle(14));
+        let mut found = Comoving::<32>::new();
+        let first = corners(&with(&ground, &car));
+        assert_eq!(found.find(&first, PRINCIPAL, Some(road_flow)), 0);
+        // The body pitches and rolls a little between the frames.
+        let car2 = moved(&car, 0.8, 0.4, -2.3);
+        let second = corners(&with(&flowed(&ground), &car2));
+        assert_eq!(found.find(&second, PRINCIPAL, Some(road_flow)), 14);
+        let mut got = hidden(&found, &second);
+        let mut want = car2.clone();
+        got.sort_by(|a, b| a.partial_cmp(b).unwrap());
+        want.sort_by(|a, b| a.partial_cmp(b).unwrap());
+        for (g, w) in got.iter().zip(&want) {
+            assert!(
+                (g.0 - w.0).abs() < 1e-3 && (g.1 - w.1).abs() < 1e-3,
+                "{g:?} {w:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn standing_still_or_unpredicted_nothing_is_set_aside() {
+        let scene = with(&road(18, 7), &vehicle(14));
+        let frame = corners(&scene);
+        let mut found = Comoving::<32>::new();
+        let standing = |_: Pixel| Some((0.0, 0.0));
+        for _ in 0..3 {
+            assert_eq!(found.find(&frame, PRINCIPAL, Some(standing)), 0);
+        }
+        let none: Option<Flow> = None;
+        assert_eq!(found.find(&frame, PRINCIPAL, none), 0);
+    }
+
+    #[test]
+    fn a_small_still_group_is_set_aside_from_its_second_still_frame() {
+        let (ground, car) = (road(20, 11), vehicle(9));
+        let mut found = Comoving::<32>::new();
+        found.find(&corners(&with(&ground, &car)), PRINCIPAL, Some(road_flow));
+        let ground2 = flowed(&ground);
+        let second = corners(&with(&ground2, &moved(&car, 0.0, 0.0, 1.0)));
+        assert_eq!(found.find(&second, PRINCIPAL, Some(road_flow)), 0);
+        let third = corners(&with(&flowed(&ground2), &moved(&car, 0.0, 0.0, 1.6)));
+        assert_eq!(found.find(&third, PRINCIPAL, Some(road_flow)), 9);
+    }
+
+    #[test]
+    fn the_road_alone_is_never_set_aside() {
+        // Dense road corners: many have a neighbour within reach in the next frame, and those
+        // at one range move alike, but each moves as the road does.
+        let band = (0..10).map(|i| (592.0 + 3.0 * i as f32, 250.0));
+        let mut points: Vec<_> = band.chain(road(22, 3)).collect();
+        let mut found = Comoving::<32>::new();
+        for _ in 0..10 {
+            assert_eq!(found.find(&corners(&points), PRINCIPAL, Some(road_flow)), 0);
+            points = flowed(&points);
+            for p in points.iter_mut().filter(|p| p.1 > 370.0) {
+                p.1 -= 130.0;
+            }
+        }
+    }
+}
