@@ -65,6 +65,7 @@ pub mod odometer;
 pub mod paper;
 pub mod pitch_vote;
 pub mod projection;
+mod sort;
 pub mod tracks;
 pub mod vote;
 

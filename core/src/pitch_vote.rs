@@ -176,22 +176,9 @@ fn tent_weight(lateral: f32, along: Option<f32>) -> u8 {
     ((1.0 + VOTE_WEIGHT * lateral) * along.map_or(1.0, |a| 1.0 + VOTE_WEIGHT * a)) as u8
 }
 
-/// Sorts ground points by range, nearest first (insertion sort: a few dozen points, no
-/// allocation, no panic path).
+/// Sorts ground points by range, nearest first.
 fn sort_by_ahead(points: &mut [GroundPoint]) {
-    for i in 1..points.len() {
-        let mut j = i;
-        while j > 0 {
-            let Some([a, b]) = points.get_mut(j - 1..=j) else {
-                break;
-            };
-            if a.x_m <= b.x_m {
-                break;
-            }
-            core::mem::swap(a, b);
-            j -= 1;
-        }
-    }
+    crate::sort::sort_by_key(points, |p| p.x_m);
 }
 
 /// Keeps the votes of a pair at heading bin `i` for distance `v_m`: one bin when `half_m` is 0,
