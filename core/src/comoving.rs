@@ -196,7 +196,7 @@ impl<const F: usize> Comoving<F> {
         let sides = sides.zip(&self.previous_still).zip(turned.iter_mut());
         for (side, ((corners, still), out)) in sides.enumerate() {
             for ((k, p), &still) in corners.iter().enumerate().zip(still) {
-                // A heap holds far fewer than 2^15 corners; saturating keeps it panic-free.
+                // A heap holds far fewer than 2^16 corners; saturating keeps it panic-free.
                 let order = u16::try_from(side * F + k).unwrap_or(u16::MAX);
                 let p = p.pixel();
                 let (x, y) = (p.u_px - principal.u_px, p.v_px - principal.v_px);
