@@ -44,6 +44,7 @@
 
 use crate::harris::Corners;
 use crate::projection::Pixel;
+use crate::vote::VoteGrid;
 use heapless::Vec;
 
 /// Largest displacement between two frames, in each image axis, of a corner that stands still,
@@ -52,9 +53,9 @@ pub const REACH_PX: i32 = 8;
 /// Fewest still corners for them to be an object's. Among the road's corners a nearest
 /// neighbour lands at one displacement by chance a few at a time: the road's own displacements
 /// spread with each corner's range and lateral place.
-pub const MIN_CORNERS: u16 = 8;
+pub const MIN_CORNERS: u32 = 8;
 /// Still corners enough to be an object's in the first frame they stand still (see step 3).
-pub const MIN_CORNERS_AT_ONCE: u16 = 12;
+pub const MIN_CORNERS_AT_ONCE: u32 = 12;
 /// How far from its predicted place on the road, pixels, a still corner must be found: above
 /// the common displacement's tolerance (1.5 pixels each way) with room for the prediction's
 /// error.
@@ -67,17 +68,18 @@ pub const ROLL_STEP_RAD: f32 = 0.2 * core::f32::consts::PI / 180.0;
 /// Bins per axis of the displacement histogram.
 const BINS: usize = 2 * REACH_PX as usize + 1;
 
-/// The previous frame's corners and which of this frame's move with us. Holds between frames
-/// only the previous corners.
+/// The previous frame's corners, and which of them stood still: what finding this frame's
+/// corners that move with us needs of the last.
 #[derive(Clone, Debug)]
 pub struct Comoving<const F: usize> {
     previous: Corners<F>,
     /// Per side (left, right), in heap order: the previous corner stood still where the road
     /// would have moved.
     previous_still: [[bool; F]; 2],
-    /// Per side (left, right), in heap order: the corner moves with us.
-    hidden: [[bool; F]; 2],
 }
+
+/// Per side (left, right), in heap order: the corner moves with us.
+pub type Hidden<const F: usize> = [[bool; F]; 2];
 
 impl<const F: usize> Default for Comoving<F> {
     fn default() -> Self {
@@ -121,7 +123,6 @@ impl<const F: usize> Comoving<F> {
         Self {
             previous: Corners::new(),
             previous_still: [[false; F]; 2],
-            hidden: [[false; F]; 2],
         }
     }
 
@@ -133,15 +134,14 @@ impl<const F: usize> Comoving<F> {
     /// Finds this frame's corners that move with us (see the module docs), given the image's
     /// `principal` point and `flow_px`: the image motion (columns, rows) of a point on the road
     /// at a pixel under the predicted motion (`None` without a prediction: nothing is set
-    /// aside). Then remembers `corners` for the next frame. Returns how many were set aside.
+    /// aside). Then remembers `corners` for the next frame. Returns which were set aside.
     pub fn find(
         &mut self,
         corners: &Corners<F>,
         principal: Pixel,
         flow_px: Option<impl Fn(Pixel) -> Option<(f32, f32)>>,
-    ) -> u16 {
+    ) -> Hidden<F> {
         let mut hidden = [[false; F]; 2];
-        let mut count = 0;
         let mut still = [[false; F]; 2];
         if let Some(flow_px) = flow_px {
             // The roll change under which most corners stand still: (corners, roll, bin).
@@ -178,15 +178,13 @@ impl<const F: usize> Comoving<F> {
                             }
                         }
                         *h = *st && (was_still || n >= MIN_CORNERS_AT_ONCE);
-                        count += u16::from(*h);
                     }
                 }
             }
         }
         self.previous.clone_from(corners);
         self.previous_still = still;
-        self.hidden = hidden;
-        count
+        hidden
     }
 
     /// The previous corners turned by `roll_rad` about `principal`, each side sorted by column.
@@ -254,48 +252,21 @@ fn within_reach<const F: usize>(
 }
 
 /// The 3x3 bins holding the most displacements: how many they hold and their centre bin.
-fn common_shift<const F: usize>(shifts: &Shifts<F>) -> (u16, (usize, usize)) {
-    let mut histogram = [[0u16; BINS]; BINS];
+fn common_shift<const F: usize>(shifts: &Shifts<F>) -> (u32, (usize, usize)) {
+    let mut histogram = VoteGrid::<BINS>::new();
     for (i, j) in shifts.iter().flatten().filter_map(|s| s.and_then(bin)) {
-        if let Some(cell) = histogram.get_mut(i).and_then(|row| row.get_mut(j)) {
-            *cell = cell.saturating_add(1);
-        }
+        histogram.add(i, j, 1);
     }
-    let around = |i: usize, j: usize| -> u16 {
-        let rows = histogram
-            .iter()
-            .skip(i.saturating_sub(1))
-            .take(3 - usize::from(i == 0));
-        rows.map(|row| {
-            let cells = row
-                .iter()
-                .skip(j.saturating_sub(1))
-                .take(3 - usize::from(j == 0));
-            cells.fold(0u16, |s, &c| s.saturating_add(c))
-        })
-        .fold(0, u16::saturating_add)
-    };
     let mut best = (0, (0, 0));
     for i in 0..BINS {
         for j in 0..BINS {
-            let n = around(i, j);
+            let n = histogram.around(i, j);
             if n > best.0 {
                 best = (n, (i, j));
             }
         }
     }
     best
-}
-
-impl<const F: usize> Comoving<F> {
-    /// Whether corner `k` (heap order) of side `side` (0 left, 1 right) moves with us.
-    pub fn is_hidden(&self, side: usize, k: usize) -> bool {
-        self.hidden
-            .get(side)
-            .and_then(|s| s.get(k))
-            .copied()
-            .unwrap_or(false)
-    }
 }
 
 #[cfg(test)]
@@ -332,16 +303,18 @@ mod tests {
         c
     }
 
-    /// The pixels of the hidden corners.
-    fn hidden(found: &Comoving<32>, c: &Corners<32>) -> Vec<(f32, f32)> {
-        let sides = [&c.left, &c.right].into_iter().enumerate();
+    /// How many corners are hidden.
+    fn count(hidden: &Hidden<32>) -> usize {
+        hidden.iter().flatten().filter(|&&h| h).count()
+    }
+
+    /// The pixels of the `hidden` corners of `c`.
+    fn pixels(hidden: &Hidden<32>, c: &Corners<32>) -> Vec<(f32, f32)> {
+        let sides = [&c.left, &c.right].into_iter().zip(hidden);
         sides
-            .flat_map(|(side, heap)| {
-                let kept = heap
-                    .iter()
-                    .enumerate()
-                    .filter(move |&(k, _)| found.is_hidden(side, k));
-                kept.map(|(_, c)| (c.pixel().u_px, c.pixel().v_px))
+            .flat_map(|(heap, hidden)| {
+                let kept = heap.iter().zip(hidden).filter(|&(_, &h)| h);
+                kept.map(|(c, _)| (c.pixel().u_px, c.pixel().v_px))
             })
             .collect()
     }
@@ -406,12 +379,13 @@ mod tests {
         let (ground, car) = (road(18, 7), vehicle(14));
         let mut found = Comoving::<32>::new();
         let first = corners(&with(&ground, &car));
-        assert_eq!(found.find(&first, PRINCIPAL, Some(road_flow)), 0);
+        assert_eq!(count(&found.find(&first, PRINCIPAL, Some(road_flow))), 0);
         // The body pitches and rolls a little between the frames.
         let car2 = moved(&car, 0.8, 0.4, -2.3);
         let second = corners(&with(&flowed(&ground), &car2));
-        assert_eq!(found.find(&second, PRINCIPAL, Some(road_flow)), 14);
-        let mut got = hidden(&found, &second);
+        let hidden = found.find(&second, PRINCIPAL, Some(road_flow));
+        assert_eq!(count(&hidden), 14);
+        let mut got = pixels(&hidden, &second);
         let mut want = car2.clone();
         got.sort_by(|a, b| a.partial_cmp(b).unwrap());
         want.sort_by(|a, b| a.partial_cmp(b).unwrap());
@@ -430,10 +404,10 @@ mod tests {
         let mut found = Comoving::<32>::new();
         let standing = |_: Pixel| Some((0.0, 0.0));
         for _ in 0..3 {
-            assert_eq!(found.find(&frame, PRINCIPAL, Some(standing)), 0);
+            assert_eq!(count(&found.find(&frame, PRINCIPAL, Some(standing))), 0);
         }
         let none: Option<Flow> = None;
-        assert_eq!(found.find(&frame, PRINCIPAL, none), 0);
+        assert_eq!(count(&found.find(&frame, PRINCIPAL, none)), 0);
     }
 
     #[test]
@@ -443,9 +417,9 @@ mod tests {
         found.find(&corners(&with(&ground, &car)), PRINCIPAL, Some(road_flow));
         let ground2 = flowed(&ground);
         let second = corners(&with(&ground2, &moved(&car, 0.0, 0.0, 1.0)));
-        assert_eq!(found.find(&second, PRINCIPAL, Some(road_flow)), 0);
+        assert_eq!(count(&found.find(&second, PRINCIPAL, Some(road_flow))), 0);
         let third = corners(&with(&flowed(&ground2), &moved(&car, 0.0, 0.0, 1.6)));
-        assert_eq!(found.find(&third, PRINCIPAL, Some(road_flow)), 9);
+        assert_eq!(count(&found.find(&third, PRINCIPAL, Some(road_flow))), 9);
     }
 
     #[test]
@@ -456,7 +430,10 @@ mod tests {
         let mut points: Vec<_> = band.chain(road(22, 3)).collect();
         let mut found = Comoving::<32>::new();
         for _ in 0..10 {
-            assert_eq!(found.find(&corners(&points), PRINCIPAL, Some(road_flow)), 0);
+            assert_eq!(
+                count(&found.find(&corners(&points), PRINCIPAL, Some(road_flow))),
+                0
+            );
             points = flowed(&points);
             for p in points.iter_mut().filter(|p| p.1 > 370.0) {
                 p.1 -= 130.0;

@@ -422,9 +422,10 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
             u_px: k.cx_px,
             v_px: k.cy_px,
         };
-        let n = self.comoving.find(&self.corners, principal, flow_px);
-        self.pitch_vote.hide(&self.comoving);
-        n
+        let hidden = self.comoving.find(&self.corners, principal, flow_px);
+        self.pitch_vote.hide(hidden);
+        let n = hidden.iter().flatten().filter(|&&h| h).count();
+        u16::try_from(n).unwrap_or(u16::MAX)
     }
 
     /// The rear axle's pose: the state's is the pivot's (see `pivot_s2_per_m`).

@@ -131,7 +131,7 @@
 //!
 //! Fallback, track update and integration are the odometer's (paper §2.3 and §5).
 
-use crate::comoving::Comoving;
+use crate::comoving::Hidden;
 use crate::config::ValidConfig;
 use crate::harris::Corners;
 use crate::motion::Motion;
@@ -304,7 +304,7 @@ pub struct PitchVoteScratch<const N: usize, const F: usize, const GRID: usize> {
     /// How far ahead of the rear axle this frame's points are measured from, metres.
     pivot_m: f32,
     /// This frame's corners that move with us, per side in heap order: left out of everything.
-    hidden: [[bool; F]; 2],
+    hidden: Hidden<F>,
     /// One track's votes before they join the accumulator.
     track_votes: BestPerBin<GRID>,
     trig: [Trig; GRID],
@@ -434,14 +434,10 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
         self.pivot_m = pivot_m;
     }
 
-    /// Leaves this frame's corners that `comoving` found moving with us out of the vote, the
-    /// matches and the new tracks.
-    pub fn hide(&mut self, comoving: &Comoving<F>) {
-        for (side, hidden) in self.hidden.iter_mut().enumerate() {
-            for (k, h) in hidden.iter_mut().enumerate() {
-                *h = comoving.is_hidden(side, k);
-            }
-        }
+    /// Leaves this frame's `hidden` corners (found moving with us, [`crate::comoving`]) out of
+    /// the vote, the matches and the new tracks.
+    pub fn hide(&mut self, hidden: Hidden<F>) {
+        self.hidden = hidden;
     }
 
     /// Backprojects the corners seen at body attitude `at` into `self.obs`, but for the hidden.

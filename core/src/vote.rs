@@ -227,6 +227,18 @@ impl<const GRID: usize> VoteGrid<GRID> {
             .unwrap_or(0)
     }
 
+    /// Votes in the 3x3 bins around bin `(i, j)` (those inside the grid).
+    pub fn around(&self, i: usize, j: usize) -> u32 {
+        let rows = self.cells.iter().skip(i.saturating_sub(1));
+        let rows = rows.take(3 - usize::from(i == 0));
+        rows.flat_map(|row| {
+            let cells = row.iter().skip(j.saturating_sub(1));
+            cells.take(3 - usize::from(j == 0))
+        })
+        .map(|&c| u32::from(c))
+        .sum()
+    }
+
     /// The highest bin, the votes in the 3x3 bins around it (the score), and the centre of
     /// gravity of a 3x3-bin square that is moved onto its own centre of gravity (eight
     /// mean-shift steps, bins counted by the share of them inside the square). Starting from the
@@ -245,21 +257,7 @@ impl<const GRID: usize> VoteGrid<GRID> {
         if best == 0 {
             return None;
         }
-        let mut score = 0u32;
-        for row in self
-            .cells
-            .iter()
-            .skip(at.0.saturating_sub(1))
-            .take(3 - usize::from(at.0 == 0))
-        {
-            for &c in row
-                .iter()
-                .skip(at.1.saturating_sub(1))
-                .take(3 - usize::from(at.1 == 0))
-            {
-                score += u32::from(c);
-            }
-        }
+        let score = self.around(at.0, at.1);
         let (mut mi, mut mj) = (at.0 as f32, at.1 as f32);
         // Share of bin k (covering k - 0.5 .. k + 0.5) inside m - 1.5 .. m + 1.5.
         let cover = |k: usize, m: f32| {
