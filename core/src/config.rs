@@ -104,10 +104,16 @@ pub struct PitchVoteSettings {
     /// Share of each frame's measured common pitch error (the slope of matched distances
     /// against range, see [`crate::pitch_vote`]) that moves both frames' pitch (0.2).
     pub absolute_gain: f32,
-    /// Time constant with which the body pitch and roll estimates return to level, seconds
-    /// (0.5; 0: never). The body's attitude on its suspension is a damped oscillation about
-    /// level with a period near a second; an offset that lasts longer is the estimate's drift.
+    /// Time constant with which the body pitch estimate returns to level, seconds (0.5; 0:
+    /// never). The body's attitude on its suspension is a damped oscillation about level with a
+    /// period near a second; an offset that lasts longer is the estimate's drift. A vehicle
+    /// whose pitch holds an offset for seconds (on a climb, loaded, a camera re-mounted) wants
+    /// 0 with `max_pitch_change_steps` 0: its pitch then follows the absolute measurement alone
+    /// (see [`crate::pitch_vote`], "Vehicles").
     pub pitch_settle_s: f32,
+    /// Time constant with which the body roll estimate returns to level, seconds (0.5; 0:
+    /// never); see `pitch_settle_s`.
+    pub roll_settle_s: f32,
     /// How many matched tracks the previous motion weighs as against a frame's vote (3; 0: the
     /// vote alone). Each matched track is one measurement of the motion and the previous motion
     /// a prediction: a vote most tracks support (30 to 50 on the kitti-like drives) moves the
@@ -150,6 +156,7 @@ impl Default for PitchVoteSettings {
             max_roll_change_steps: 3,
             absolute_gain: 0.2,
             pitch_settle_s: 0.5,
+            roll_settle_s: 0.5,
             prior_matches: 3.0,
             pivot_s2_per_m: 0.0,
             startup_heading_half_rad: 4.0 * DEG,
@@ -395,6 +402,7 @@ impl ValidConfig {
                     max_roll_change_steps: 0,
                     absolute_gain: 0.0,
                     pitch_settle_s: 0.0,
+                    roll_settle_s: 0.0,
                     prior_matches: 0.0,
                     pivot_s2_per_m: 0.0,
                     startup_heading_half_rad: 0.0,
@@ -687,6 +695,7 @@ impl Config {
             (pv.corner_sigma_px, "pitch_vote.corner_sigma_px"),
             (pv.absolute_gain, "pitch_vote.absolute_gain"),
             (pv.pitch_settle_s, "pitch_vote.pitch_settle_s"),
+            (pv.roll_settle_s, "pitch_vote.roll_settle_s"),
             (pv.prior_matches, "pitch_vote.prior_matches"),
             (pv.pivot_s2_per_m, "pitch_vote.pivot_s2_per_m"),
         ];
@@ -751,6 +760,7 @@ impl Config {
             (self.pitch_vote.roll_range_rad, "pitch_vote.roll_range_rad"),
             (self.pitch_vote.absolute_gain, "pitch_vote.absolute_gain"),
             (self.pitch_vote.pitch_settle_s, "pitch_vote.pitch_settle_s"),
+            (self.pitch_vote.roll_settle_s, "pitch_vote.roll_settle_s"),
             (self.pitch_vote.prior_matches, "pitch_vote.prior_matches"),
             (self.pitch_vote.pivot_s2_per_m, "pitch_vote.pivot_s2_per_m"),
             (
@@ -1056,7 +1066,11 @@ pub(crate) mod tests {
         );
         // Settings that may be 0 but not negative, nor infinite or NaN.
         type Field = fn(&mut Config) -> &mut f32;
-        let not_negative: [(Field, &str); 2] = [
+        let not_negative: [(Field, &str); 3] = [
+            (
+                |c| &mut c.pitch_vote.roll_settle_s,
+                "pitch_vote.roll_settle_s",
+            ),
             (
                 |c| &mut c.pitch_vote.prior_matches,
                 "pitch_vote.prior_matches",

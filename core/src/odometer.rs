@@ -515,15 +515,12 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
         {
             self.state.drift.pitch_steps += pv.absolute_gain * e / step_rad;
         }
-        // Offsets from level that outlast the suspension's swing are the estimate's drift.
-        if pv.pitch_settle_s > 0.0 {
-            let level = AttitudeIndex::level(&self.config);
-            let off = |at: usize, level: usize| at as f32 - level as f32;
-            let share = (interval_us as f32 * 1e-6 / pv.pitch_settle_s).min(1.0);
-            let d = &mut self.state.drift;
-            d.pitch_steps -= share * off(outcome.attitude.pitch, level.pitch);
-            d.roll_steps -= share * off(outcome.attitude.roll, level.roll);
-        }
+        self.state.drift.settle(
+            outcome.attitude,
+            AttitudeIndex::level(&self.config),
+            interval_us as f32 * 1e-6,
+            pv,
+        );
         Voted {
             motion: Some(outcome.motion),
             matched,

@@ -165,6 +165,8 @@ pub struct OdometerSection {
     pub absolute_gain: f32,
     /// Default method: time constant of the pitch's return to level, seconds (0: never).
     pub pitch_settle_s: f32,
+    /// Default method: time constant of the roll's return to level, seconds (0: never).
+    pub roll_settle_s: f32,
     /// Default method: how many matched tracks the previous motion weighs as (0: none).
     pub prior_matches: f32,
     /// Default method: the pivot the vehicle's arc is drawn from lies this many s^2/m times the
@@ -202,6 +204,7 @@ impl Default for OdometerSection {
             max_roll_change_steps: pv.max_roll_change_steps,
             absolute_gain: pv.absolute_gain,
             pitch_settle_s: pv.pitch_settle_s,
+            roll_settle_s: pv.roll_settle_s,
             prior_matches: pv.prior_matches,
             pivot_s2_per_m: pv.pivot_s2_per_m,
         }
@@ -335,6 +338,7 @@ impl MountFile {
                 max_roll_change_steps: o.max_roll_change_steps,
                 absolute_gain: o.absolute_gain,
                 pitch_settle_s: o.pitch_settle_s,
+                roll_settle_s: o.roll_settle_s,
                 prior_matches: o.prior_matches,
                 pivot_s2_per_m: o.pivot_s2_per_m,
                 ..PitchVoteSettings::default()
@@ -406,7 +410,7 @@ height_m = 1.65
         let seq_camera: MountFile = toml::from_str(KITTI).unwrap();
         let f = MountFile::read(Path::new(shipped), Some(&seq_camera.camera)).unwrap();
         assert_eq!(f.camera, seq_camera.camera);
-        assert_eq!(f.mount.height_m, 1.57);
+        assert_eq!(f.mount.height_m, 1.565);
         f.to_config().validate().unwrap();
         let e = format!(
             "{:#}",

@@ -151,6 +151,42 @@ fn a_slipping_vehicle_is_followed_from_its_pivot() {
 }
 
 #[test]
+fn a_pitch_held_for_the_whole_drive_is_followed_by_a_stiff_body_s_settings() {
+    // A body that holds a pitch (KITTI's car on a climb) looks to the odometer like a mount
+    // pitched that much off: here +-0.4 deg for all 130 frames. The defaults settle the pitch
+    // back to the mount's within half a second (5-7 % off, measured); a stiff body's settings
+    // (`mounts/kitti.toml`: no relative pitch search, no settling, a roll step a frame) let the
+    // absolute measurement follow it (under 0.2 % off).
+    let runs: Vec<Run> = [(0.4, false), (0.4, true), (-0.4, false), (-0.4, true)]
+        .into_iter()
+        .map(|(off_deg, stiff)| {
+            let tweak: Box<dyn Fn(&mut MountFile)> = Box::new(move |m: &mut MountFile| {
+                m.mount.pitch_deg += off_deg;
+                if stiff {
+                    m.odometer.max_pitch_change_steps = 0;
+                    m.odometer.pitch_settle_s = 0.0;
+                    m.odometer.max_roll_change_steps = 1;
+                }
+            });
+            (MethodName::Default, tweak)
+        })
+        .collect();
+    let d = drives_with("kitti-like", &[], 130, &runs);
+    let off = |i: usize| (d[i].report.path_ratio.unwrap() - 1.0).abs();
+    for (settling, stiff) in [(0, 1), (2, 3)] {
+        std::println!(
+            "path off by {:.4} settling to the mount, {:.4} with the stiff body's settings",
+            off(settling),
+            off(stiff)
+        );
+        let (held, followed) = (&d[settling].report, &d[stiff].report);
+        assert!(off(stiff) <= 0.02, "{followed:#?}");
+        assert!(off(stiff) < 0.5 * off(settling), "{held:#?}");
+        assert!(followed.end_drift_pct <= 2.0, "{followed:#?}");
+    }
+}
+
+#[test]
 fn traffic_ahead_neither_stops_nor_jumps_the_estimate() {
     // A car cuts in 5 m ahead from 10 s to 12 s (frames 100 to 120).
     let d = drive("kitti-like", &["traffic"], 140, MethodName::Default);
