@@ -11,7 +11,7 @@ use roadvo::{
 
 fn config(u: &mut Unstructured) -> arbitrary::Result<Config> {
     let mut f = || f32::arbitrary(u);
-    let floats: [f32; 30] = std::array::from_fn(|_| f().unwrap_or(0.0));
+    let floats: [f32; 31] = std::array::from_fn(|_| f().unwrap_or(0.0));
     Ok(Config {
         image: ImageSize {
             width_px: u.arbitrary()?,
@@ -64,6 +64,7 @@ fn config(u: &mut Unstructured) -> arbitrary::Result<Config> {
             max_roll_change_steps: u.arbitrary()?,
             absolute_gain: floats[26],
             pitch_settle_s: floats[27],
+            roll_settle_s: floats[30],
             prior_matches: floats[28],
             pivot_s2_per_m: floats[29],
             startup_heading_half_rad: floats[21],
