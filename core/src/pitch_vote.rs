@@ -138,7 +138,7 @@
 //! 0.04-0.15 deg, about the size of the hypotheses' steps, so that the relative pass mostly
 //! picks noise; and on KITTI 02's climb (4 deg, twenty seconds) the camera looks down 0.3-0.7
 //! deg against 0.8-1.0 on the level before it. Settling to the mount's pitch held that climb
-//! 0.4 deg off: the distances came out 12-14% short there (8.5% over the 300 frames). With
+//! 0.4 deg off: the distances came out 6-14% short there (8.5% over the 300 frames). With
 //! `max_pitch_change_steps` 0 and `pitch_settle_s` 0 the pitch follows the absolute
 //! measurement alone (one relative vote a frame instead of eleven), and with
 //! `max_roll_change_steps` 1 the roll moves a step a frame at most: `mounts/kitti.toml`.
