@@ -154,18 +154,21 @@ fn a_slipping_vehicle_is_followed_from_its_pivot() {
 fn a_pitch_held_for_the_whole_drive_is_followed_by_a_stiff_body_s_settings() {
     // A body that holds a pitch (KITTI's car on a climb) looks to the odometer like a mount
     // pitched that much off: here +-0.4 deg for all 130 frames. The defaults settle the pitch
-    // back to the mount's within half a second (5-7 % off, measured); a stiff body's settings
-    // (`mounts/kitti.toml`: no relative pitch search, no settling, a roll step a frame) let the
-    // absolute measurement follow it (under 0.2 % off).
+    // back to the mount's within half a second (5-7 % off, measured); a stiff body's settings,
+    // read from `mounts/kitti.toml` (no relative pitch search, no settling, a roll step a
+    // frame), let the absolute measurement follow it (under 0.2 % off).
+    let shipped =
+        std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../mounts/kitti.toml"));
     let runs: Vec<Run> = [(0.4, false), (0.4, true), (-0.4, false), (-0.4, true)]
         .into_iter()
         .map(|(off_deg, stiff)| {
             let tweak: Box<dyn Fn(&mut MountFile)> = Box::new(move |m: &mut MountFile| {
                 m.mount.pitch_deg += off_deg;
                 if stiff {
-                    m.odometer.max_pitch_change_steps = 0;
-                    m.odometer.pitch_settle_s = 0.0;
-                    m.odometer.max_roll_change_steps = 1;
+                    let kitti = MountFile::read(shipped, Some(&m.camera)).unwrap().odometer;
+                    m.odometer.max_pitch_change_steps = kitti.max_pitch_change_steps;
+                    m.odometer.pitch_settle_s = kitti.pitch_settle_s;
+                    m.odometer.max_roll_change_steps = kitti.max_roll_change_steps;
                 }
             });
             (MethodName::Default, tweak)
