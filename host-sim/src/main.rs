@@ -141,6 +141,10 @@ enum Command {
         /// Render only the first N frames of each drive (default: the whole course).
         #[arg(long)]
         frames: Option<usize>,
+        /// Change one value of every case's mount file (after the case's own change), as its
+        /// line would: KEY=VALUE in [odometer], or SECTION.KEY=VALUE.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        settings: Vec<String>,
     },
     /// Render the paper's s-course, run both methods, evaluate, and plot: the default demo.
     Demo {
@@ -164,13 +168,20 @@ struct SequenceArgs {
     /// Override the mount file's method.
     #[arg(long, value_enum)]
     method: Option<MethodName>,
+    /// Change one value of the mount file, as its line would: KEY=VALUE in [odometer], or
+    /// SECTION.KEY=VALUE (e.g. `--set max_roll_change_steps=0 --set mount.yaw_deg=-0.25`).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    settings: Vec<String>,
 }
 
 impl SequenceArgs {
-    /// Opens the sequence and reads its mount file.
+    /// Opens the sequence and reads its mount file, with the `--set` changes.
     fn open(&self) -> Result<(Sequence, MountFile)> {
         let seq = Sequence::open(&self.seq_dir)?;
-        let mount = mount_for(&seq, self.mount.as_deref())?;
+        let mut mount = mount_for(&seq, self.mount.as_deref())?;
+        for s in &self.settings {
+            mount.set(s)?;
+        }
         Ok((seq, mount))
     }
 }
@@ -427,7 +438,12 @@ fn main() -> Result<()> {
             }
             Ok(())
         }
-        Command::Sensitivity { out, seed, frames } => {
+        Command::Sensitivity {
+            out,
+            seed,
+            frames,
+            settings,
+        } => {
             let tmp = tempfile::Builder::new()
                 .prefix("roadvo-sensitivity-")
                 .tempdir()?;
@@ -436,12 +452,18 @@ fn main() -> Result<()> {
                 ProgressStyle::with_template("{spinner} {elapsed} {msg}").expect("valid template"),
             );
             bar.enable_steady_tick(std::time::Duration::from_millis(200));
-            let rows = sensitivity(&out, seed, frames, |what| bar.set_message(what.to_string()))?;
+            let rows = sensitivity(&out, seed, frames, &settings, |what| {
+                bar.set_message(what.to_string())
+            })?;
             bar.finish_and_clear();
             println!(
                 "s-course, seed {seed}: translation = path length error (positive: too long), \
-                 rotation = final heading error over the path length\n"
+                 rotation = final heading error over the path length"
             );
+            for s in &settings {
+                println!("every case with --set {s}");
+            }
+            println!();
             print!("{}", format_rows(&rows));
             Ok(())
         }

@@ -293,6 +293,44 @@ impl MountFile {
         std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))
     }
 
+    /// Sets one value as a line of the file would: `KEY=VALUE` in `[odometer]`, or
+    /// `SECTION.KEY=VALUE` in `[camera]`, `[mount]` or `[odometer]`, the value written as in the
+    /// file (`0`, `0.5`, `"paper"`, or a bare word for text): the `--set` option, for trying a setting without editing a
+    /// file. Errors say which assignment and what was expected; nothing changes on an error.
+    pub fn set(&mut self, assignment: &str) -> Result<()> {
+        let context = || format!("--set {assignment}");
+        let Some((path, value)) = assignment.split_once('=') else {
+            bail!(
+                "{}: expected KEY=VALUE, e.g. max_roll_change_steps=0",
+                context()
+            );
+        };
+        let path = path.trim();
+        let (section, key) = path.split_once('.').unwrap_or(("odometer", path));
+        // A word without quotes is taken as text (`method=paper`), as a shell user writes it.
+        let value = value.trim();
+        let value = toml::from_str::<toml::Table>(&format!("value = {value}"))
+            .ok()
+            .and_then(|mut t| t.remove("value"))
+            .unwrap_or_else(|| toml::Value::String(value.to_owned()));
+        let mut file = toml::Table::try_from(&*self)?;
+        let Some(table) = file.get_mut(section).and_then(toml::Value::as_table_mut) else {
+            bail!(
+                "{}: no section [{section}] (camera, mount or odometer)",
+                context()
+            );
+        };
+        match table.get_mut(key) {
+            Some(slot) => *slot = value,
+            None => bail!(
+                "{}: [{section}] has no key `{key}` (see the README's mount file)",
+                context()
+            ),
+        }
+        *self = file.try_into().with_context(context)?;
+        Ok(())
+    }
+
     /// The core's configuration (not yet validated).
     pub fn to_config(&self) -> Config {
         let (c, o) = (&self.camera, &self.odometer);
@@ -420,6 +458,43 @@ height_m = 1.65
             e.contains("kitti.toml") && e.contains("no [camera] section"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn a_setting_changes_one_value_as_a_line_of_the_file_would() {
+        let mut f: MountFile = toml::from_str(KITTI).unwrap();
+        let before = f.clone();
+        f.set("max_roll_change_steps=0").unwrap();
+        f.set(" mount.roll_deg = 1.5 ").unwrap();
+        f.set("odometer.method=\"paper\"").unwrap();
+        f.set("method=paper").unwrap();
+        // An integer where the file holds a decimal, as a file may write it.
+        f.set("pitch_settle_s=2").unwrap();
+        assert_eq!(f.odometer.max_roll_change_steps, 0);
+        assert_eq!(f.mount.roll_deg, 1.5);
+        assert_eq!(f.odometer.method, MethodName::Paper);
+        assert_eq!(f.odometer.pitch_settle_s, 2.0);
+        f.odometer = before.odometer.clone();
+        f.mount.roll_deg = before.mount.roll_deg;
+        assert_eq!(f, before);
+    }
+
+    #[test]
+    fn a_bad_setting_says_which_and_why_and_changes_nothing() {
+        let mut f: MountFile = toml::from_str(KITTI).unwrap();
+        let before = f.clone();
+        for (assignment, says) in [
+            ("max_roll_change_steps", "expected KEY=VALUE"),
+            ("max_roll_change=0", "no key `max_roll_change`"),
+            ("wheels.x_m=1", "no section [wheels]"),
+            ("roll_steps=-1", "--set roll_steps=-1"),
+            ("method=fast", "--set method=fast"),
+            ("mount.height_m=tall", "--set mount.height_m"),
+        ] {
+            let e = format!("{:#}", f.set(assignment).unwrap_err());
+            assert!(e.contains(says), "{assignment}: {e}");
+        }
+        assert_eq!(f, before);
     }
 
     #[test]

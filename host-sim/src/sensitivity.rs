@@ -181,11 +181,13 @@ pub fn errors(truth: &[Pose], est: &[Pose]) -> (f64, f64) {
 }
 
 /// Runs the study on the s-course rendered with `seed` (`frames` of it, or all) into folders
-/// under `out`; `progress` hears what is being done.
+/// under `out`, every case's mount file changed by `settings` (as [`MountFile::set`] takes
+/// them) after the case's own change; `progress` hears what is being done.
 pub fn sensitivity(
     out: &Path,
     seed: u64,
     frames: Option<usize>,
+    settings: &[String],
     mut progress: impl FnMut(&str),
 ) -> Result<Vec<Row>> {
     let mut rows = Vec::new();
@@ -208,6 +210,9 @@ pub fn sensitivity(
             let mut mount = mount_for(&seq, None)?;
             if let Departure::Mount(change) = &case.departure {
                 change(&mut mount);
+            }
+            for s in settings {
+                mount.set(s)?;
             }
             for method in [MethodName::Default, MethodName::Paper] {
                 progress(&format!("{} ({method:?})", case.name));

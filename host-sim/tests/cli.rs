@@ -16,6 +16,16 @@ fn roadvo(args: &[&str]) -> std::process::Output {
     out
 }
 
+/// Runs `roadvo` with `args`, expecting a refusal; its error output.
+fn refused(args: &[&str]) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_roadvo"))
+        .args(args)
+        .output()
+        .expect("roadvo runs");
+    assert!(!out.status.success(), "roadvo {args:?} succeeded");
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
 /// Renders the first `frames` frames of `scenario` into `out`.
 fn simulate(scenario: &str, out: &Path, frames: usize) {
     let frames = frames.to_string();
@@ -86,12 +96,7 @@ fn bad_input_says_which_file_and_line() {
     let dir = tempfile::tempdir().unwrap();
     let gt = dir.path().join("gt.txt");
     std::fs::write(&gt, "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 0 0 0 1\n").unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_roadvo"))
-        .args(["eval", gt.to_str().unwrap(), gt.to_str().unwrap()])
-        .output()
-        .unwrap();
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = refused(&["eval", gt.to_str().unwrap(), gt.to_str().unwrap()]);
     assert!(
         err.contains("gt.txt line 2: expected 12 numbers (a 3x4 pose), found 11"),
         "{err}"
@@ -140,17 +145,66 @@ fn pack_stores_the_rows_the_odometer_reads_and_refuses_changed_settings() {
     assert!(mount.contains("features_per_side = 32"), "{mount}");
     let mount = mount.replace("features_per_side = 32", "features_per_side = 16");
     std::fs::write(&changed, mount).unwrap();
-    let refused = Command::new(env!("CARGO_BIN_EXE_roadvo"))
-        .args(["pack", seq.to_str().unwrap(), "--out"])
-        .arg(&store)
-        .arg("--mount")
-        .arg(&changed)
-        .output()
-        .unwrap();
-    assert!(!refused.status.success());
+    let err = refused(&[
+        "pack",
+        seq.to_str().unwrap(),
+        "--out",
+        store.to_str().unwrap(),
+        "--mount",
+        changed.to_str().unwrap(),
+    ]);
+    assert!(err.contains("default odometer settings"), "{err}");
+}
+
+#[test]
+fn set_runs_as_the_edited_mount_file_would_and_names_a_bad_key() {
+    let dir = tempfile::tempdir().unwrap();
+    simulate("s-course", dir.path(), 12);
+    let seq = dir.path().join("sequences/00");
+    let mount = std::fs::read_to_string(seq.join("mount.toml")).unwrap();
     assert!(
-        String::from_utf8_lossy(&refused.stderr).contains("default odometer settings"),
-        "{}",
-        String::from_utf8_lossy(&refused.stderr)
+        mount.contains("max_roll_change_steps = 3") && mount.contains("yaw_deg = 0.0"),
+        "{mount}"
+    );
+    let edited = dir.path().join("edited.toml");
+    std::fs::write(
+        &edited,
+        mount
+            .replace("max_roll_change_steps = 3", "max_roll_change_steps = 0")
+            .replace("yaw_deg = 0.0", "yaw_deg = 0.5"),
+    )
+    .unwrap();
+    let run = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let mut args = vec!["run", seq.to_str().unwrap(), "--out", out.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        roadvo(&args);
+        std::fs::read_to_string(out).unwrap()
+    };
+    let from_file = run("file.txt", &["--mount", edited.to_str().unwrap()]);
+    let from_set = run(
+        "set.txt",
+        &[
+            "--set",
+            "max_roll_change_steps=0",
+            "--set",
+            "mount.yaw_deg=0.5",
+        ],
+    );
+    assert_eq!(from_set, from_file);
+    assert_ne!(from_set, run("plain.txt", &[]));
+
+    let x = dir.path().join("x.txt");
+    let err = refused(&[
+        "run",
+        seq.to_str().unwrap(),
+        "--out",
+        x.to_str().unwrap(),
+        "--set",
+        "max_roll_change=0",
+    ]);
+    assert!(
+        err.contains("--set max_roll_change=0: [odometer] has no key `max_roll_change`"),
+        "{err}"
     );
 }
