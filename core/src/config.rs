@@ -129,6 +129,14 @@ pub struct PitchVoteSettings {
     /// 40 km/h). An arc drawn from the rear axle turns that sideways slip into a turn too small
     /// (see [`crate::pitch_vote`], step 3). A property of the vehicle, like the mount.
     pub pivot_s2_per_m: f32,
+    /// Whether the heading comes from the matched pairs' residuals across the chord alone
+    /// (false). The vote's heading also answers to the distances along it, since a turn moves
+    /// the two sides' points by opposite amounts along the vehicle: where the two sides'
+    /// distances disagree for another reason (a roll estimate off, a kerb, a crowned or sloped
+    /// side) the vote turns that into a heading. With this set, the heading is refined after
+    /// matching so that the pairs' residuals across the chord balance (least squares over the
+    /// matched pairs, see [`crate::pitch_vote`], step 5), and the distance stays the vote's.
+    pub refine_heading: bool,
     /// Heading window half width with no previous motion, radians (4 deg: 40 deg/s at 10 frames/s;
     /// KITTI 01 starts in a bend at 2.5 deg a frame).
     pub startup_heading_half_rad: f32,
@@ -158,6 +166,7 @@ impl Default for PitchVoteSettings {
             pitch_settle_s: 0.5,
             roll_settle_s: 0.5,
             prior_matches: 3.0,
+            refine_heading: false,
             pivot_s2_per_m: 0.0,
             startup_heading_half_rad: 4.0 * DEG,
             startup_distance_max_m: 2.6,
@@ -404,6 +413,7 @@ impl ValidConfig {
                     pitch_settle_s: 0.0,
                     roll_settle_s: 0.0,
                     prior_matches: 0.0,
+                    refine_heading: false,
                     pivot_s2_per_m: 0.0,
                     startup_heading_half_rad: 0.0,
                     startup_distance_max_m: 0.0,

@@ -523,7 +523,7 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
             pv,
         );
         Voted {
-            motion: Some(outcome.motion),
+            motion: Some(self.pitch_vote.refined(outcome.motion)),
             matched,
             peak: outcome.peak.score,
             pitch_rad: pitch_hypothesis_rad(pv, outcome.attitude.pitch),

@@ -93,7 +93,18 @@
 //!    highest bin) wins; the motion is the centre of gravity of those 3x3 bins.
 //! 5. **Matches.** At the winning attitude and motion each track takes the unused observation with
 //!    the smallest residual, if under the tolerance across the chord and within its distance
-//!    tent (at least two bins and the tolerance) along it.
+//!    tent (at least two bins and the tolerance) along it. With `refine_heading` the heading is
+//!    then refined from the matched pairs' residuals across the chord alone (one Gauss-Newton
+//!    step of their least squares, [`PitchVoteScratch::refined`]). The vote's heading also
+//!    answers to the distances along the chord: a turn moves the two sides' points by opposite
+//!    amounts along the vehicle, so where the two sides' distances disagree for another reason
+//!    (a roll estimate off, a kerb's raised features, a crowned or sloped side) the vote turns
+//!    the disagreement into a heading. Measured with `roadvo sensitivity --set
+//!    refine_heading=true` (README, "Sensitivity"): every road case's rotation error falls, most
+//!    with the roll held as well (kerb with centre points 0.035 to 0.003 deg/m). Off by
+//!    default: on the kitti-like drives under the default roll search (`scripts/synthetic-spread`
+//!    with it set) it measured clean 0.81 to 0.77 % but traffic 0.92 to 0.98 %, one run of 45
+//!    over 3 % (3.64 %); on in `mounts/kitti.toml`, with the roll held.
 //!
 //! 6. **Weighing.** The frame's motion is the mean of the vote's motion, weighing as many as
 //!    the tracks it matched, and the previous motion, weighing `prior_matches` (3) tracks: a
@@ -140,12 +151,14 @@
 //! deg against 0.8-1.0 on the level before it. Settling to the mount's pitch held that climb
 //! 0.4 deg off: the distances came out 6-14% short there (8.5% over the 300 frames). With
 //! `max_pitch_change_steps` 0 and `pitch_settle_s` 0 the pitch follows the absolute
-//! measurement alone (one relative vote a frame instead of eleven), and with
-//! `max_roll_change_steps` 1 the roll moves a step a frame at most: `mounts/kitti.toml`.
-//! Measured on KITTI (`scripts/kitti-spread` over 21 heights, each setting with the mount
-//! calibrated on 05 under it): 02 9.44% to 6.12%, 05 4.46% and 0.0402 deg/m to 2.56% and
-//! 0.0170; the 10-50 m segments, which the frame-to-frame pitch swing moves most, 01 5.53% to
-//! 6.48%, 05 4.62% to 5.49%. Tried on the way: a rest pitch learned from the absolute
+//! measurement alone (one relative vote a frame instead of eleven). Measured on KITTI
+//! (`scripts/kitti-spread` over 21 heights, each setting with the mount calibrated on 05 under
+//! it), with `max_roll_change_steps` 1: 02 9.44% to 6.12%, 05 4.46% and 0.0402 deg/m to 2.56%
+//! and 0.0170; the 10-50 m segments, which the frame-to-frame pitch swing moves most, 01 5.53%
+//! to 6.48%, 05 4.62% to 5.49%. Then with the roll held (`max_roll_change_steps` 0: a roll
+//! search reads a kerb's raised features as the road's tilt) and the heading refined (step 5):
+//! 02 5.30% and 0.0367 deg/m, 05 2.04% and 0.0175, 01 6.62%: `mounts/kitti.toml`. Tried on the
+//! way: a rest pitch learned from the absolute
 //! measurement under the relative passes (02's pitch walked the other way, path 0.88 of the
 //! truth: the relative pass leans a step now and then one way, and the rest followed it); a
 //! relative pass of one step without settling (it runs away: 02 12.6%); slower settling alone
@@ -168,6 +181,10 @@ use heapless::Vec;
 const VOTE_WEIGHT: f32 = 8.0;
 /// Half width of a pair's distance tent in standard deviations of its distance.
 const SPREAD_SIGMAS: f32 = 2.0;
+
+/// Heading step over which a residual's rate with the heading is taken, radians (1 mrad: the
+/// residual is nearly linear in the heading over a window's width, see step 3).
+const HEADING_STEP_RAD: f32 = 1e-3;
 
 /// Per heading bin: cos alpha, sin alpha, cos alpha/2, sin alpha/2, 1 / sinc(alpha/2).
 type Trig = [f32; 5];
@@ -324,6 +341,9 @@ pub struct PitchVoteScratch<const N: usize, const F: usize, const GRID: usize> {
     used: [[bool; F]; 2],
     /// Sums over the last matching's pairs of (range, distance): n, x, v, xx, xv.
     regression: [f32; 5],
+    /// Sums over the last matching's pairs of the residual across the chord `r` and its rate
+    /// with the heading `r'`: n, r r', r'^2 (with `refine_heading` only).
+    across: [f32; 3],
     /// How far ahead of the rear axle this frame's points are measured from, metres.
     pivot_m: f32,
     /// This frame's corners that move with us, per side in heap order: left out of everything.
@@ -349,6 +369,7 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
             prev: [GroundPoint::ORIGIN; N],
             used: [[false; F]; 2],
             regression: [0.0; 5],
+            across: [0.0; 3],
             pivot_m: 0.0,
             hidden: [[false; F]; 2],
             track_votes: BestPerBin::new(),
@@ -697,6 +718,12 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
         let spread = Spread::new(cfg, false, self.pivot_m);
         self.used = [[false; F]; 2];
         self.regression = [0.0; 5];
+        self.across = [0.0; 3];
+        let stepped = cfg
+            .config()
+            .pitch_vote
+            .refine_heading
+            .then(|| trig(motion.heading_change_rad + HEADING_STEP_RAD));
         let mut matched = 0;
         for (&p, slot) in self.prev.iter().take(tracks.len()).zip(observed.iter_mut()) {
             *slot = None;
@@ -733,6 +760,13 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
                 let x = 0.5 * (cfg.window_coords(p).0 + cfg.window_coords(o.ground).0);
                 let r = &mut self.regression;
                 *r = [r[0] + 1.0, r[1] + x, r[2] + v, r[3] + x * x, r[4] + x * v];
+                if let Some(t_step) = &stepped {
+                    let (r0, _) = residual(p, o.ground, &t);
+                    let (r1, _) = residual(p, o.ground, t_step);
+                    let rate = (r1 - r0) / HEADING_STEP_RAD;
+                    let a = &mut self.across;
+                    *a = [a[0] + 1.0, a[1] + r0 * rate, a[2] + rate * rate];
+                }
             }
         }
         matched
@@ -762,6 +796,21 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
         }
         let slope = (sxv / n - (sx / n) * v) / var;
         Some(-slope * height_m / (2.0 * v))
+    }
+
+    /// `motion` with its heading refined so that the last matching's pairs' residuals across
+    /// the chord balance: one Gauss-Newton step of least squares over them, the residual being
+    /// nearly linear in the heading (see step 5 of the module docs). `motion` itself with
+    /// fewer than eight pairs, or when `refine_heading` is off (no sums were kept).
+    pub fn refined(&self, motion: Motion) -> Motion {
+        let [n, r_rate, rate_sq] = self.across;
+        if n < 8.0 || rate_sq <= 0.0 {
+            return motion;
+        }
+        Motion {
+            heading_change_rad: motion.heading_change_rad - r_rate / rate_sq,
+            ..motion
+        }
     }
 
     /// Marks every observation untaken (nothing matched this frame).
@@ -1018,6 +1067,47 @@ mod tests {
                 "{out:?}"
             );
         }
+    }
+
+    #[test]
+    fn a_heading_off_by_a_tenth_of_a_degree_is_refined_from_the_residuals_across_the_chord() {
+        let mut config = kitti_config();
+        config.pitch_vote.refine_heading = true;
+        let cfg = config.validate().unwrap();
+        let truth = Motion {
+            heading_change_rad: 0.01,
+            distance_m: 0.9,
+        };
+        let (tracks, corners) = frame_pair(&cfg, &scene(60), truth, degrees(0.0, 0.0));
+        let mut scratch = PitchVoteScratch::<64, 64, 64>::default();
+        let window = MotionWindow::around(truth, 1f32.to_radians(), 0.3);
+        let level = AttitudeIndex::level(&cfg);
+        let drift = &mut AttitudeDrift::default();
+        scratch
+            .estimate(&cfg, &tracks, &corners, &window, level, drift, true)
+            .unwrap();
+        // Matched under a heading a tenth of a degree off (2.6 cm across the chord at 15 m,
+        // inside the 4 cm tolerance), the pairs' residuals lean one way; the refined heading
+        // balances them.
+        let off = Motion {
+            heading_change_rad: truth.heading_change_rad + 0.1f32.to_radians(),
+            ..truth
+        };
+        let mut observed = [None; 64];
+        let n = tracks.len();
+        let matched = scratch.match_tracks(&cfg, &tracks, off, 0.04, 0.05, &mut observed[..n]);
+        assert!(matched > 40, "{matched}");
+        let refined = scratch.refined(off);
+        let error_deg = (refined.heading_change_rad - truth.heading_change_rad).to_degrees();
+        assert!(
+            error_deg.abs() < 0.005,
+            "refined heading off by {error_deg} deg"
+        );
+        assert_eq!(refined.distance_m, off.distance_m);
+        // Without the setting no sums are kept and the motion stays as it was.
+        let plain = kitti_config().validate().unwrap();
+        scratch.match_tracks(&plain, &tracks, off, 0.04, 0.05, &mut observed[..n]);
+        assert_eq!(scratch.refined(off), off);
     }
 
     #[test]

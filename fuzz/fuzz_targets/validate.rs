@@ -66,6 +66,7 @@ fn config(u: &mut Unstructured) -> arbitrary::Result<Config> {
             pitch_settle_s: floats[27],
             roll_settle_s: floats[30],
             prior_matches: floats[28],
+            refine_heading: u.arbitrary()?,
             pivot_s2_per_m: floats[29],
             startup_heading_half_rad: floats[21],
             startup_distance_max_m: floats[22],

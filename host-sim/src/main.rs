@@ -4,7 +4,7 @@
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
-use roadvo_sim::calibrate::calibrate;
+use roadvo_sim::calibrate::{Metric, calibrate};
 use roadvo_sim::eval::{Report, evaluate, evaluate_planar, format_report};
 use roadvo_sim::frame_store::pack;
 use roadvo_sim::kitti::Sequence;
@@ -104,6 +104,10 @@ enum Command {
         /// Most mounts tried (each costs five odometry runs over the section, at heights -2..+2 mm).
         #[arg(long, default_value_t = 150)]
         max_runs: usize,
+        /// What a mount is scored on: segments of 10..50 m (short) or KITTI's 100..800 m
+        /// (kitti, for a section of 100 m or more).
+        #[arg(long, value_enum, default_value_t = Metric::Short)]
+        metric: Metric,
     },
     /// Pack a sequence into the firmware example's frame store (the rows the odometer reads).
     Pack {
@@ -345,6 +349,7 @@ fn main() -> Result<()> {
             frames,
             out,
             max_runs,
+            metric,
         } => {
             let (seq, start) = args.open()?;
             let (seq_dir, method) = (args.seq_dir, args.method);
@@ -360,6 +365,7 @@ fn main() -> Result<()> {
                 section.clone(),
                 &start,
                 method,
+                metric,
                 max_runs,
                 |n, c| {
                     bar.set_position(n as u64);
@@ -368,10 +374,11 @@ fn main() -> Result<()> {
             )?;
             bar.finish_and_clear();
             println!(
-                "frames {}..{} of {}: cost (short-segment t_err % + 100 x r_err deg/m, mean of 5 heights) {:.3} -> {:.3}, {} mounts tried, {:.1} s",
+                "frames {}..{} of {}: cost ({}) {:.3} -> {:.3}, {} mounts tried, {:.1} s",
                 section.start,
                 section.end,
                 seq_dir.display(),
+                metric.describe(),
                 cal.cost_before,
                 cal.cost_after,
                 cal.evaluations,

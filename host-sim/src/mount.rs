@@ -169,6 +169,9 @@ pub struct OdometerSection {
     pub roll_settle_s: f32,
     /// Default method: how many matched tracks the previous motion weighs as (0: none).
     pub prior_matches: f32,
+    /// Default method: the heading from the matched pairs' residuals across the chord alone,
+    /// refined after the vote (false: the vote's).
+    pub refine_heading: bool,
     /// Default method: the pivot the vehicle's arc is drawn from lies this many s^2/m times the
     /// speed squared ahead of the rear axle (tyre slip; 0: the rear axle).
     pub pivot_s2_per_m: f32,
@@ -206,6 +209,7 @@ impl Default for OdometerSection {
             pitch_settle_s: pv.pitch_settle_s,
             roll_settle_s: pv.roll_settle_s,
             prior_matches: pv.prior_matches,
+            refine_heading: pv.refine_heading,
             pivot_s2_per_m: pv.pivot_s2_per_m,
         }
     }
@@ -378,6 +382,7 @@ impl MountFile {
                 pitch_settle_s: o.pitch_settle_s,
                 roll_settle_s: o.roll_settle_s,
                 prior_matches: o.prior_matches,
+                refine_heading: o.refine_heading,
                 pivot_s2_per_m: o.pivot_s2_per_m,
                 ..PitchVoteSettings::default()
             },

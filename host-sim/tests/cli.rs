@@ -208,3 +208,27 @@ fn set_runs_as_the_edited_mount_file_would_and_names_a_bad_key() {
         "{err}"
     );
 }
+
+#[test]
+fn calibrating_on_the_kitti_metric_asks_for_100_m() {
+    let dir = tempfile::tempdir().unwrap();
+    simulate("s-course", dir.path(), 12);
+    let seq = dir.path().join("sequences/00");
+    let gt = dir.path().join("poses/00.txt");
+    let out = dir.path().join("calibrated.toml");
+    let err = refused(&[
+        "calibrate",
+        seq.to_str().unwrap(),
+        "--gt",
+        gt.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--metric",
+        "kitti",
+    ]);
+    assert!(
+        err.contains("too short for the KITTI metric: it needs at least 100 m"),
+        "{err}"
+    );
+    assert!(!out.exists());
+}

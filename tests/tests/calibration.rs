@@ -1,7 +1,7 @@
 //! `roadvo calibrate` end to end: a drive rendered with one mount, told another, calibrated
 //! back against its ground truth.
 
-use roadvo_sim::calibrate::calibrate;
+use roadvo_sim::calibrate::{Metric, calibrate};
 use roadvo_sim::kitti::{Sequence, read_poses};
 use roadvo_sim::run::mount_for;
 use roadvo_sim::scenario::Scenario;
@@ -24,7 +24,7 @@ fn calibration_removes_the_drift_of_a_yaw_error() {
     let truth = sc.mount_file(false);
     assert!((told.mount.yaw_deg - truth.mount.yaw_deg - 1.0).abs() < 1e-4);
     let gt = read_poses(&poses_path(dir.path())).unwrap();
-    let cal = calibrate(&seq, &gt, 0..120, &told, None, 60, |_, _| {}).unwrap();
+    let cal = calibrate(&seq, &gt, 0..120, &told, None, Metric::Short, 60, |_, _| {}).unwrap();
     assert!(
         cal.cost_after < 0.25 * cal.cost_before,
         "cost {} -> {}",

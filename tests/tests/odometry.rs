@@ -202,8 +202,8 @@ fn a_pitch_held_for_the_whole_drive_is_followed_by_a_stiff_body_s_settings() {
     // A body that holds a pitch (KITTI's car on a climb) looks to the odometer like a mount
     // pitched that much off: here +-0.4 deg for all 130 frames. The defaults settle the pitch
     // back to the mount's within half a second (5-7 % off, measured); a stiff body's settings,
-    // read from `mounts/kitti.toml` (no relative pitch search, no settling, a roll step a
-    // frame), let the absolute measurement follow it (under 0.2 % off).
+    // read from `mounts/kitti.toml` (no relative pitch search, no settling, the roll held), let
+    // the absolute measurement follow it (under 0.3 % off).
     let shipped = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../mounts/kitti.toml"));
     let runs: Vec<Run> = [(0.4, false), (0.4, true), (-0.4, false), (-0.4, true)]
         .into_iter()
