@@ -756,12 +756,11 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVoteScratch<N, F, G
             if let Some(o) = taken {
                 *slot = Some(o);
                 matched += 1;
-                let (_, v) = residual(p, o.ground, &t);
+                let (r0, v) = residual(p, o.ground, &t);
                 let x = 0.5 * (cfg.window_coords(p).0 + cfg.window_coords(o.ground).0);
                 let r = &mut self.regression;
                 *r = [r[0] + 1.0, r[1] + x, r[2] + v, r[3] + x * x, r[4] + x * v];
                 if let Some(t_step) = &stepped {
-                    let (r0, _) = residual(p, o.ground, &t);
                     let (r1, _) = residual(p, o.ground, t_step);
                     let rate = (r1 - r0) / HEADING_STEP_RAD;
                     let a = &mut self.across;
