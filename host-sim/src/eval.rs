@@ -15,11 +15,15 @@
 //! A planar method cannot follow the road's climb, so [`evaluate_planar`] also scores both
 //! trajectories in the ground plane only (camera-0 positions in x-z and heading about the
 //! vertical), and reports the planar floor: what the ground truth's own planar motion scores on
-//! the 3D metric, below which no planar estimate can go.
+//! the 3D metric, the first camera taken as level. That is the floor of a planar estimate in
+//! that plane only. An estimate whose first camera looks down at its ground plane or is rolled
+//! against it (a mount's pitch and roll) moves in another plane and turns about another axis,
+//! and the 3D metric weighs the two differently: its floor is the ground truth's motion in its
+//! own plane, reported beside ([`OwnPlaneFloor`]).
 
 use crate::kitti::Pose;
 use anyhow::{Result, bail};
-use nalgebra::{Matrix3, Matrix4, Vector3};
+use nalgebra::{Matrix3, Matrix4, Rotation3, Unit, UnitQuaternion, Vector3};
 use serde::Serialize;
 
 /// The devkit's segment lengths, metres.
@@ -92,11 +96,35 @@ pub struct Report {
     /// With `--planar`: the same report in the ground plane only.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub planar: Option<Box<Report>>,
-    /// With `--planar`: the 3D metric of the ground truth's own planar motion, (t_err %,
-    /// r_err deg/m); `None` where the drive is too short for KITTI segments.
+    /// With `--planar`: the 3D metric of the ground truth's own planar motion, the first camera
+    /// taken as level, (t_err %, r_err deg/m); `None` where the drive is too short for KITTI
+    /// segments.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub planar_floor: Option<(f64, f64)>,
+    /// With `--planar`: the same in the estimate's own ground plane; `None` where the drive is
+    /// too short for KITTI segments or the estimate never turns by [`MIN_AXIS_TURN_DEG`].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub own_plane_floor: Option<OwnPlaneFloor>,
 }
+
+/// The planar floor in a planar estimate's own ground plane: the plane its positions keep to,
+/// whose normal is the axis it turns about.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct OwnPlaneFloor {
+    /// How far the first camera looks down at that plane, degrees.
+    pub pitch_down_deg: f64,
+    /// How far the first camera's left side is up against that plane, degrees.
+    pub roll_left_up_deg: f64,
+    /// The ground truth's motion in that plane (positions in it, heading about its normal) on
+    /// the KITTI metric: translation error, percent.
+    pub t_err_pct: f64,
+    /// The same: rotation error, deg/m.
+    pub r_err_deg_per_m: f64,
+}
+
+/// Smallest turn from the first frame, degrees, whose axis is taken as an estimate's vertical:
+/// a straight drive shows none.
+pub const MIN_AXIS_TURN_DEG: f64 = 5.0;
 
 /// The heading of a camera-0 pose about the vertical: the yaw of its optical axis, radians.
 pub fn heading_rad(p: &Pose) -> f64 {
@@ -111,7 +139,8 @@ pub fn planar_pose(p: &Pose) -> Pose {
     [c, 0.0, s, p[3], 0.0, 1.0, 0.0, 0.0, -s, 0.0, c, p[11]]
 }
 
-/// [`evaluate`], plus the same metric in the ground plane only and the planar floor.
+/// [`evaluate`], plus the same metric in the ground plane only and the planar floors, level and
+/// in the estimate's own plane.
 pub fn evaluate_planar(gt: &[Pose], est: &[Pose]) -> Result<Report> {
     let mut report = evaluate(gt, est)?;
     let (gt_p, est_p): (Vec<Pose>, Vec<Pose>) = (
@@ -120,8 +149,73 @@ pub fn evaluate_planar(gt: &[Pose], est: &[Pose]) -> Result<Report> {
     );
     let floor = evaluate(gt, &gt_p)?;
     report.planar_floor = floor.t_err_pct.zip(floor.r_err_deg_per_m);
+    report.own_plane_floor = match vertical_of(est) {
+        Some(up) => {
+            let first = gt.first().map(matrix).unwrap_or_else(Matrix4::identity);
+            let in_plane: Vec<Pose> = gt.iter().map(|p| in_plane(p, &first, &up)).collect();
+            let floor = evaluate(gt, &in_plane)?;
+            floor
+                .t_err_pct
+                .zip(floor.r_err_deg_per_m)
+                .map(|(t, r)| OwnPlaneFloor {
+                    pitch_down_deg: (-up.z).asin().to_degrees(),
+                    roll_left_up_deg: (-up.x).asin().to_degrees(),
+                    t_err_pct: t,
+                    r_err_deg_per_m: r,
+                })
+        }
+        None => None,
+    };
     report.planar = Some(Box::new(evaluate(&gt_p, &est_p)?));
     Ok(report)
+}
+
+/// The rotation part of a pose.
+fn rotation(m: &Matrix4<f64>) -> Rotation3<f64> {
+    Rotation3::from_matrix_unchecked(m.fixed_view::<3, 3>(0, 0).into())
+}
+
+/// The vertical a planar estimate turns about, in its first camera's axes (pointing up, where
+/// the camera's y points down): the mean axis of its turns from the first frame of at least
+/// [`MIN_AXIS_TURN_DEG`], weighted by their angles. `None` if it never turns that far.
+fn vertical_of(est: &[Pose]) -> Option<Unit<Vector3<f64>>> {
+    let first = rotation(&matrix(est.first()?));
+    let mut sum = Vector3::zeros();
+    for p in est {
+        let Some((axis, angle)) = (first.inverse() * rotation(&matrix(p))).axis_angle() else {
+            continue;
+        };
+        if angle.to_degrees() >= MIN_AXIS_TURN_DEG {
+            let up = if axis.y > 0.0 {
+                -axis.into_inner()
+            } else {
+                axis.into_inner()
+            };
+            sum += up * angle;
+        }
+    }
+    Unit::try_new(sum, 1e-9)
+}
+
+/// Pose `p` as its planar motion from `first` in the plane through `first`'s camera normal to
+/// `up` (in `first`'s axes): its position projected onto the plane, its rotation the part of it
+/// about `up` (the twist of its quaternion).
+fn in_plane(p: &Pose, first: &Matrix4<f64>, up: &Unit<Vector3<f64>>) -> Pose {
+    let rel = rigid_inverse(first) * matrix(p);
+    let q = UnitQuaternion::from_rotation_matrix(&rotation(&rel));
+    let twist = 2.0 * q.vector().dot(up).atan2(q.scalar());
+    let t: Vector3<f64> = rel.fixed_view::<3, 1>(0, 3).into();
+    let mut m = Matrix4::identity();
+    m.fixed_view_mut::<3, 3>(0, 0)
+        .copy_from(Rotation3::from_axis_angle(up, twist).matrix());
+    m.fixed_view_mut::<3, 1>(0, 3)
+        .copy_from(&(t - up.into_inner() * t.dot(up)));
+    let m = first * m;
+    let r = |i: usize| [m[(i, 0)], m[(i, 1)], m[(i, 2)], m[(i, 3)]];
+    let [a, b, c] = [r(0), r(1), r(2)];
+    [
+        a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3], c[0], c[1], c[2], c[3],
+    ]
 }
 
 fn matrix(p: &Pose) -> Matrix4<f64> {
@@ -279,6 +373,7 @@ pub fn evaluate(gt: &[Pose], est: &[Pose]) -> Result<Report> {
         end_heading_err_deg: rotation_angle_rad(&end_rot).to_degrees(),
         planar: None,
         planar_floor: None,
+        own_plane_floor: None,
     })
 }
 
@@ -342,7 +437,13 @@ pub fn format_report(r: &Report) -> String {
         );
         if let Some((t, r)) = r.planar_floor {
             s += &format!(
-                "Planar floor (the ground truth's own planar motion on the 3D metric): t_err {t:.2} %, r_err {r:.4} deg/m\n"
+                "Planar floor (the ground truth's own planar motion on the 3D metric, the first camera level): t_err {t:.2} %, r_err {r:.4} deg/m\n"
+            );
+        }
+        if let Some(f) = r.own_plane_floor {
+            s += &format!(
+                "Planar floor in the estimate's own ground plane (the first camera looking {:.2} deg down at it, its left side {:.2} deg up): t_err {:.2} %, r_err {:.4} deg/m\n",
+                f.pitch_down_deg, f.roll_left_up_deg, f.t_err_pct, f.r_err_deg_per_m
             );
         }
     }
@@ -472,6 +573,56 @@ mod tests {
         // The floor is what the level estimate scores: it is the planar motion of the truth.
         let (floor_t, _) = r.planar_floor.unwrap();
         assert!((floor_t - r.t_err_pct.unwrap()).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_camera_looking_down_at_its_plane_has_that_plane_as_its_floor() {
+        // A drive in the ground plane of a camera looking 2 deg down at it (its up vector tilted
+        // back), turning left at 0.01 rad/m, and an estimate that is the truth itself.
+        let tilt = 2f64.to_radians();
+        let up = Unit::new_normalize(Vector3::new(0.0, -tilt.cos(), -tilt.sin()));
+        let z = Vector3::z();
+        let ahead = (z - up.into_inner() * z.dot(&up)).normalize();
+        let (mut t, mut gt) = (Vector3::zeros(), Vec::new());
+        for i in 0..3000 {
+            let turn = Rotation3::from_axis_angle(&up, 0.001 * f64::from(i));
+            let m = turn.matrix();
+            gt.push([
+                m[(0, 0)],
+                m[(0, 1)],
+                m[(0, 2)],
+                t.x,
+                m[(1, 0)],
+                m[(1, 1)],
+                m[(1, 2)],
+                t.y,
+                m[(2, 0)],
+                m[(2, 1)],
+                m[(2, 2)],
+                t.z,
+            ]);
+            t += turn * ahead * 0.1;
+        }
+        let r = evaluate_planar(&gt, &gt).unwrap();
+        let own = r.own_plane_floor.unwrap();
+        assert!((own.pitch_down_deg - 2.0).abs() < 1e-9, "{own:?}");
+        assert!(own.roll_left_up_deg.abs() < 1e-9, "{own:?}");
+        assert!(
+            own.t_err_pct < 1e-6 && own.r_err_deg_per_m < 1e-6,
+            "{own:?}"
+        );
+        // Taken as level, the same drive climbs and turns about a tilted axis.
+        let (level_t, level_r) = r.planar_floor.unwrap();
+        assert!(level_t > 0.5 && level_r > 1e-4, "{level_t} {level_r}");
+        assert!(format_report(&r).contains("looking 2.00 deg down at it"));
+    }
+
+    #[test]
+    fn a_straight_estimate_has_no_plane_of_its_own() {
+        let gt = straight(1100, 0.1);
+        let r = evaluate_planar(&gt, &gt).unwrap();
+        assert_eq!(r.own_plane_floor, None);
+        assert!(r.planar_floor.is_some());
     }
 
     #[test]

@@ -64,7 +64,8 @@ enum Command {
         #[arg(long)]
         plot: Option<PathBuf>,
         /// Also score both trajectories in the ground plane only (x-z positions and heading),
-        /// and report the planar floor of the ground truth.
+        /// and report the ground truth's planar floors: the first camera level, and in the
+        /// estimate's own ground plane.
         #[arg(long)]
         planar: bool,
     },
