@@ -211,11 +211,8 @@ fn in_plane(p: &Pose, first: &Matrix4<f64>, up: &Unit<Vector3<f64>>) -> Pose {
     m.fixed_view_mut::<3, 1>(0, 3)
         .copy_from(&(t - up.into_inner() * t.dot(up)));
     let m = first * m;
-    let r = |i: usize| [m[(i, 0)], m[(i, 1)], m[(i, 2)], m[(i, 3)]];
-    let [a, b, c] = [r(0), r(1), r(2)];
-    [
-        a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3], c[0], c[1], c[2], c[3],
-    ]
+    // The top three rows, row-major.
+    std::array::from_fn(|k| m[(k / 4, k % 4)])
 }
 
 fn matrix(p: &Pose) -> Matrix4<f64> {
@@ -587,20 +584,10 @@ mod tests {
         for i in 0..3000 {
             let turn = Rotation3::from_axis_angle(&up, 0.001 * f64::from(i));
             let m = turn.matrix();
-            gt.push([
-                m[(0, 0)],
-                m[(0, 1)],
-                m[(0, 2)],
-                t.x,
-                m[(1, 0)],
-                m[(1, 1)],
-                m[(1, 2)],
-                t.y,
-                m[(2, 0)],
-                m[(2, 1)],
-                m[(2, 2)],
-                t.z,
-            ]);
+            gt.push(std::array::from_fn(|k| {
+                let (i, j) = (k / 4, k % 4);
+                if j == 3 { t[i] } else { m[(i, j)] }
+            }));
             t += turn * ahead * 0.1;
         }
         let r = evaluate_planar(&gt, &gt).unwrap();
@@ -615,6 +602,26 @@ mod tests {
         let (level_t, level_r) = r.planar_floor.unwrap();
         assert!(level_t > 0.5 && level_r > 1e-4, "{level_t} {level_r}");
         assert!(format_report(&r).contains("looking 2.00 deg down at it"));
+        // A truth that climbs out of that plane, 5 cm a frame: the estimate is its motion in the
+        // plane, so it scores the floor.
+        let climbing: Vec<Pose> = gt
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let mut q = *p;
+                for (k, u) in [3, 7, 11].into_iter().zip(up.iter()) {
+                    q[k] += 0.05 * f64::from(i as u32) * u;
+                }
+                q
+            })
+            .collect();
+        let r = evaluate_planar(&climbing, &gt).unwrap();
+        let own = r.own_plane_floor.unwrap();
+        assert!(r.t_err_pct.unwrap() > 10.0, "{:?}", r.t_err_pct);
+        assert!(
+            (own.t_err_pct - r.t_err_pct.unwrap()).abs() < 1e-6,
+            "{own:?}"
+        );
     }
 
     #[test]
