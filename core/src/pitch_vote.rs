@@ -158,12 +158,12 @@
 //! to 6.48%, 05 4.62% to 5.49%. Then with the roll held (`max_roll_change_steps` 0: a roll
 //! search reads a kerb's raised features as the road's tilt) and the heading refined (step 5):
 //! 02 5.30% and 0.0367 deg/m, 05 2.04% and 0.0175, 01 6.62%: `mounts/kitti.toml`. Tried on the
-//! way: a rest pitch learned from the absolute
-//! measurement under the relative passes (02's pitch walked the other way, path 0.88 of the
-//! truth: the relative pass leans a step now and then one way, and the rest followed it); a
-//! relative pass of one step without settling (it runs away: 02 12.6%); slower settling alone
-//! (02's path 0.89); pitch held at the mount (02 9.5%). On the suspension drives the pitch
-//! cannot follow without the relative pass (kitti-like 6.6% against 0.8%): the defaults stay.
+//! way: a rest pitch learned from the absolute measurement under the relative passes (02's
+//! pitch walked the other way, path 0.88 of the truth: the relative pass leans a step now and
+//! then one way, and the rest followed it); a relative pass of one step without settling (it
+//! runs away: 02 12.6%); slower settling alone (02's path 0.89); pitch held at the mount (02
+//! 9.5%). On the suspension drives the pitch cannot follow without the relative pass
+//! (kitti-like 6.6% against 0.8%): the defaults stay.
 //!
 //! Fallback, track update and integration are the odometer's (paper §2.3 and §5).
 

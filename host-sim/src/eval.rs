@@ -179,10 +179,10 @@ fn rotation(m: &Matrix4<f64>) -> Rotation3<f64> {
 /// the camera's y points down): the mean axis of its turns from the first frame of at least
 /// [`MIN_AXIS_TURN_DEG`], weighted by their angles. `None` if it never turns that far.
 fn vertical_of(est: &[Pose]) -> Option<Unit<Vector3<f64>>> {
-    let first = rotation(&matrix(est.first()?));
+    let from_first = rotation(&matrix(est.first()?)).inverse();
     let mut sum = Vector3::zeros();
     for p in est {
-        let Some((axis, angle)) = (first.inverse() * rotation(&matrix(p))).axis_angle() else {
+        let Some((axis, angle)) = (from_first * rotation(&matrix(p))).axis_angle() else {
             continue;
         };
         if angle.to_degrees() >= MIN_AXIS_TURN_DEG {

@@ -299,8 +299,9 @@ impl MountFile {
 
     /// Sets one value as a line of the file would: `KEY=VALUE` in `[odometer]`, or
     /// `SECTION.KEY=VALUE` in `[camera]`, `[mount]` or `[odometer]`, the value written as in the
-    /// file (`0`, `0.5`, `"paper"`, or a bare word for text): the `--set` option, for trying a setting without editing a
-    /// file. Errors say which assignment and what was expected; nothing changes on an error.
+    /// file (`0`, `0.5`, `"paper"`, or a bare word for text): the `--set` option, for trying a
+    /// setting without editing a file. Errors say which assignment and what was expected;
+    /// nothing changes on an error.
     pub fn set(&mut self, assignment: &str) -> Result<()> {
         let context = || format!("--set {assignment}");
         let Some((path, value)) = assignment.split_once('=') else {
