@@ -50,6 +50,7 @@
 //! - [`paper`]: the paper's method as written, for comparison.
 //! - [`tracks`]: the pool of tracked ground features.
 //! - [`odometer`]: [`Odometer::process`], the per-frame flow through all of the above.
+//! - [`smoother`]: an optional fixed-lag smoother of the heading, fed the odometer's estimates.
 #![no_std]
 #![deny(missing_docs)]
 
@@ -65,6 +66,7 @@ pub mod odometer;
 pub mod paper;
 pub mod pitch_vote;
 pub mod projection;
+pub mod smoother;
 mod sort;
 pub mod tracks;
 pub mod vote;
@@ -80,3 +82,4 @@ pub use odometer::{Estimate, FrameError, Odometer, Quality};
 pub use projection::{
     Attitude, GroundPoint, GroundProjection, Homography, Intrinsics, Mount, Pixel, Quad, RollMap,
 };
+pub use smoother::{Smoother, SmootherError};

@@ -175,6 +175,10 @@ pub struct OdometerSection {
     /// Default method: the pivot the vehicle's arc is drawn from lies this many s^2/m times the
     /// speed squared ahead of the rear axle (tyre slip; 0: the rear axle).
     pub pivot_s2_per_m: f32,
+    /// Default method: frames of lag of the trajectory's heading smoother (0: none, the
+    /// odometer's own estimates; see the core's `smoother`). Not the core's setting: the host
+    /// feeds the odometer's estimates through a `Smoother`.
+    pub smooth_lag_frames: u8,
 }
 
 impl Default for OdometerSection {
@@ -211,6 +215,7 @@ impl Default for OdometerSection {
             prior_matches: pv.prior_matches,
             refine_heading: pv.refine_heading,
             pivot_s2_per_m: pv.pivot_s2_per_m,
+            smooth_lag_frames: 0,
         }
     }
 }

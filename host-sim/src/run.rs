@@ -6,7 +6,7 @@ use crate::kitti::{Pose, Sequence, pose_of};
 use crate::mount::{CameraSection, MethodName, MountFile};
 use anyhow::{Context, Result, anyhow, bail};
 use indicatif::{ProgressBar, ProgressStyle};
-use roadvo::{Estimate, Odometer, SliceFrame, ValidConfig};
+use roadvo::{Estimate, Method, Odometer, SliceFrame, Smoother, ValidConfig};
 use serde::Serialize;
 use std::io::Write;
 use std::path::Path;
@@ -146,13 +146,63 @@ impl Preloaded {
     }
 
     /// The camera-0 trajectory of a fresh odometer with `config` over the frames (KITTI poses
-    /// through the mount).
-    pub fn poses(&self, config: ValidConfig) -> Result<Vec<Pose>> {
-        let mut poses = Vec::with_capacity(self.len());
+    /// through the mount, smoothed as `mount` says).
+    pub fn poses(&self, mount: &MountFile, config: ValidConfig) -> Result<Vec<Pose>> {
+        let mut trajectory = Trajectory::new(mount, config, self.len())?;
+        let mut times = self.times_us.iter();
         self.run(config, |e, _| {
-            poses.push(pose_of(&config.lift().camera_pose(&e.pose)))
+            trajectory.push(*e, times.next().copied().unwrap_or(u64::MAX));
         })?;
-        Ok(poses)
+        Ok(trajectory.finish())
+    }
+}
+
+/// The longest `smooth_lag_frames` the host's smoother holds.
+pub const MAX_SMOOTH_LAG_FRAMES: u8 = 4;
+
+/// The camera-0 trajectory of a run: each estimate through the mount file's heading smoother,
+/// then lifted through the mount to a KITTI pose.
+pub struct Trajectory {
+    smoother: Smoother<{ 2 * MAX_SMOOTH_LAG_FRAMES as usize + 1 }>,
+    config: ValidConfig,
+    poses: Vec<Pose>,
+}
+
+impl Trajectory {
+    /// A trajectory of up to `frames` poses, with `mount`'s `smooth_lag_frames` for the default
+    /// method and none for the paper's, which stays as written.
+    pub fn new(mount: &MountFile, config: ValidConfig, frames: usize) -> Result<Self> {
+        let lag = match config.config().method {
+            Method::PitchVote => mount.odometer.smooth_lag_frames,
+            Method::Paper => 0,
+        };
+        let smoother =
+            Smoother::new(lag).map_err(|e| anyhow!("mount file: smooth_lag_frames: {e}"))?;
+        Ok(Self {
+            smoother,
+            config,
+            poses: Vec::with_capacity(frames),
+        })
+    }
+
+    /// Takes the estimate of the frame at `timestamp_us`.
+    pub fn push(&mut self, estimate: Estimate, timestamp_us: u64) {
+        if let Some(e) = self.smoother.push(estimate, timestamp_us) {
+            self.lift(&e);
+        }
+    }
+
+    /// The poses, every frame's, once the last frames held for the lag are let out.
+    pub fn finish(mut self) -> Vec<Pose> {
+        while let Some(e) = self.smoother.flush() {
+            self.lift(&e);
+        }
+        self.poses
+    }
+
+    fn lift(&mut self, e: &Estimate) {
+        self.poses
+            .push(pose_of(&self.config.lift().camera_pose(&e.pose)));
     }
 }
 
@@ -250,7 +300,7 @@ pub fn run_sequence(
     let mut trace_out = trace.map(create).transpose()?;
     let (mut decode, mut odometry) = (Duration::ZERO, Duration::ZERO);
     let mut estimates = Vec::with_capacity(seq.frames);
-    let mut poses = Vec::with_capacity(seq.frames);
+    let mut trajectory = Trajectory::new(mount, config, seq.frames)?;
     for i in 0..seq.frames {
         let t0 = Instant::now();
         let img = seq.load(i)?;
@@ -263,7 +313,7 @@ pub fn run_sequence(
             .process(&frame, t_us)
             .with_context(|| format!("frame {i:06}"))?;
         odometry += t1.elapsed();
-        poses.push(pose_of(&odo.config().lift().camera_pose(&est.pose)));
+        trajectory.push(est, t_us);
         if let Some(out) = quality_out.as_mut() {
             let q = &est.quality;
             let line = QualityLine {
@@ -300,7 +350,7 @@ pub fn run_sequence(
     }
     Ok(RunOutput {
         estimates,
-        poses,
+        poses: trajectory.finish(),
         odometry,
         decode,
     })

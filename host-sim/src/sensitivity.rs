@@ -216,7 +216,7 @@ pub fn sensitivity(
             }
             for method in [MethodName::Default, MethodName::Paper] {
                 progress(&format!("{} ({method:?})", case.name));
-                let est = frames.poses(config_for(&seq, &mount, Some(method))?)?;
+                let est = frames.poses(&mount, config_for(&seq, &mount, Some(method))?)?;
                 let (t, r) = errors(&truth, &est);
                 rows.push(Row {
                     case: case.name,

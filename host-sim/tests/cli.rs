@@ -210,6 +210,49 @@ fn set_runs_as_the_edited_mount_file_would_and_names_a_bad_key() {
 }
 
 #[test]
+fn the_smoother_keeps_every_frame_leaves_the_paper_alone_and_refuses_a_long_lag() {
+    let dir = tempfile::tempdir().unwrap();
+    simulate("s-course", dir.path(), 12);
+    let seq = dir.path().join("sequences/00");
+    let run = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let mut args = vec!["run", seq.to_str().unwrap(), "--out", out.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        roadvo(&args);
+        std::fs::read_to_string(out).unwrap()
+    };
+    let plain = run("plain.txt", &[]);
+    let smoothed = run("smoothed.txt", &["--set", "smooth_lag_frames=2"]);
+    assert_eq!(smoothed.lines().count(), 12);
+    assert_ne!(smoothed, plain);
+    let paper = ["--method", "paper"];
+    assert_eq!(
+        run(
+            "paper-smoothed.txt",
+            &[&paper[..], &["--set", "smooth_lag_frames=2"]].concat()
+        ),
+        run("paper.txt", &paper)
+    );
+
+    let x = dir.path().join("x.txt");
+    let err = refused(&[
+        "run",
+        seq.to_str().unwrap(),
+        "--out",
+        x.to_str().unwrap(),
+        "--set",
+        "smooth_lag_frames=5",
+    ]);
+    assert!(
+        err.contains(
+            "smooth_lag_frames: a smoothing lag of 5 frames is longer than the \
+             capacity's 4"
+        ),
+        "{err}"
+    );
+}
+
+#[test]
 fn calibrating_on_the_kitti_metric_asks_for_100_m() {
     let dir = tempfile::tempdir().unwrap();
     simulate("s-course", dir.path(), 12);
