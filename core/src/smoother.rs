@@ -199,8 +199,13 @@ impl<const N: usize> Smoother<N> {
             .skip(i.saturating_sub(self.lag))
             .take(2 * self.lag + 1);
         for h in window.filter(|h| h.drive == at.drive && h.dt_s > 0.0 && h.weight > 0.0) {
-            let x_us = i128::from(h.timestamp_us) - i128::from(at.timestamp_us);
-            let (x, y, w) = (x_us as f32 * 1e-6, h.step.heading_rad / h.dt_s, h.weight);
+            let apart_s = h.timestamp_us.abs_diff(at.timestamp_us) as f32 * 1e-6;
+            let x = if h.timestamp_us < at.timestamp_us {
+                -apart_s
+            } else {
+                apart_s
+            };
+            let (y, w) = (h.step.heading_rad / h.dt_s, h.weight);
             s = [
                 s[0] + w,
                 s[1] + w * x,

@@ -4,7 +4,8 @@
 //! The camera is stood in for by a recorded drive in the board's frame memory (see
 //! [`frame_store`]; `scripts/firmware` renders one, packs it, loads it into QEMU's PSRAM and
 //! compares what this firmware logs with the host's run, bit for bit). Each estimate goes out
-//! through defmt over semihosting; QEMU exits with 0 when the drive is done and 1 on any error
+//! through defmt over semihosting, and again through the core's heading smoother two frames
+//! later, as `mounts/kitti.toml` runs it; QEMU exits with 0 when the drive is done and 1 on any error
 //! (a panic included).
 #![no_std]
 #![no_main]
@@ -16,7 +17,13 @@ mod stack;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
 use frame_store::{FrameStore, StoreError};
-use roadvo::{Config, ConfigError, FrameError, Odometer};
+use roadvo::{
+    Config, ConfigError, Estimate, FrameError, Method, Odometer, Smoother, SmootherError,
+};
+
+/// Frames of lag of the trajectory's heading smoother (the default method's; the paper's stays
+/// as written).
+const SMOOTH_LAG_FRAMES: u8 = 2;
 
 /// Why the replay stopped.
 #[derive(defmt::Format)]
@@ -32,6 +39,8 @@ enum Error {
         /// One past the last.
         end: u16,
     },
+    /// The smoother's capacity does not hold its lag.
+    Smoother(SmootherError),
     /// The odometer refused a frame.
     Frame {
         /// Frame number.
@@ -44,6 +53,12 @@ enum Error {
 impl From<StoreError> for Error {
     fn from(e: StoreError) -> Self {
         Self::Store(e)
+    }
+}
+
+impl From<SmootherError> for Error {
+    fn from(e: SmootherError) -> Self {
+        Self::Smoother(e)
     }
 }
 
@@ -119,6 +134,13 @@ fn replay(odometer: &mut Odometer) -> Result<(), Error> {
         store.image().width_px,
         store.image().height_px
     );
+    let lag = match odometer.config().config().method {
+        Method::PitchVote => SMOOTH_LAG_FRAMES,
+        Method::Paper => 0,
+    };
+    // 472 bytes: on the stack, beside the call it outlives.
+    let mut smoother: Smoother<5> = Smoother::new(lag)?;
+    let mut smoothed = 0u32;
     for index in 0..store.frames() {
         let Some((frame, timestamp_us)) = store.frame(index) else {
             return Err(StoreError::Truncated.into());
@@ -127,24 +149,16 @@ fn replay(odometer: &mut Odometer) -> Result<(), Error> {
         let estimate = odometer.process(&frame, timestamp_us);
         roadvo_frame_end();
         let e = estimate.map_err(|error| Error::Frame { index, error })?;
-        let q = &e.quality;
-        // The f32 bit patterns, for the comparison with the host (`roadvo run --trace`).
-        defmt::println!(
-            "estimate {=u32} {=u32} {=u32} {=u32} {=u32} {=u32} {=u32} {=u32} {=u16} {=u16} {=u8} {=u16}",
-            index,
-            e.motion.distance_m.to_bits(),
-            e.motion.heading_change_rad.to_bits(),
-            e.pose.x_m.to_bits(),
-            e.pose.y_m.to_bits(),
-            e.pose.heading_rad.to_bits(),
-            q.pitch_rad.to_bits(),
-            q.inlier_ratio.to_bits(),
-            q.features_detected,
-            q.tracks_matched,
-            u8::from(q.fallback),
-            q.features_comoving
-        );
+        log_estimate("estimate", index, &e);
         defmt::debug!("{}", e);
+        if let Some(s) = smoother.push(e, timestamp_us).filter(|_| lag > 0) {
+            log_estimate("smoothed", smoothed, &s);
+            smoothed += 1;
+        }
+    }
+    while let Some(s) = smoother.flush() {
+        log_estimate("smoothed", smoothed, &s);
+        smoothed += 1;
     }
     let pose = odometer.pose();
     defmt::println!(
@@ -155,6 +169,28 @@ fn replay(odometer: &mut Odometer) -> Result<(), Error> {
         pose.heading_rad
     );
     Ok(())
+}
+
+/// Logs frame `index`'s estimate `e` as `kind` (`estimate` or `smoothed`) with its f32 bit
+/// patterns, for the comparison with the host (`roadvo run --trace`).
+fn log_estimate(kind: &str, index: u32, e: &Estimate) {
+    let q = &e.quality;
+    defmt::println!(
+        "{=str} {=u32} {=u32} {=u32} {=u32} {=u32} {=u32} {=u32} {=u32} {=u16} {=u16} {=u8} {=u16}",
+        kind,
+        index,
+        e.motion.distance_m.to_bits(),
+        e.motion.heading_change_rad.to_bits(),
+        e.pose.x_m.to_bits(),
+        e.pose.y_m.to_bits(),
+        e.pose.heading_rad.to_bits(),
+        q.pitch_rad.to_bits(),
+        q.inlier_ratio.to_bits(),
+        q.features_detected,
+        q.tracks_matched,
+        u8::from(q.fallback),
+        q.features_comoving
+    );
 }
 
 #[entry]

@@ -136,13 +136,14 @@ pub fn timestamp_us(seq: &Sequence, i: usize) -> u64 {
     (seq.times_s[i] * 1e6).round() as u64
 }
 
-/// One frame's estimate as the firmware example logs it: the frame number, the bit patterns of
-/// the motion (distance, heading change), the pose (x, y, heading), the pitch and the inlier
-/// ratio, then features detected, tracks matched and the fallback flag.
-pub fn trace_line(frame: usize, e: &Estimate) -> String {
+/// One frame's estimate as the firmware example logs it: `kind` (`estimate`, the odometer's,
+/// or `smoothed`, the smoother's), the frame number, the bit patterns of the motion (distance,
+/// heading change), the pose (x, y, heading), the pitch and the inlier ratio, then features
+/// detected, tracks matched, the fallback flag and the features set aside.
+pub fn trace_line(kind: &str, frame: usize, e: &Estimate) -> String {
     let q = &e.quality;
     format!(
-        "estimate {frame} {} {} {} {} {} {} {} {} {} {} {}",
+        "{kind} {frame} {} {} {} {} {} {} {} {} {} {} {}",
         e.motion.distance_m.to_bits(),
         e.motion.heading_change_rad.to_bits(),
         e.pose.x_m.to_bits(),

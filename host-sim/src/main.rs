@@ -83,7 +83,8 @@ enum Command {
         #[arg(long)]
         plot: Option<PathBuf>,
         /// Write each frame's estimate as the f32 bit patterns the firmware example logs, for a
-        /// bit-for-bit comparison with it (scripts/firmware).
+        /// bit-for-bit comparison with it (scripts/firmware); with a smoother
+        /// (`smooth_lag_frames`), each smoothed estimate too, as `smoothed` lines.
         #[arg(long)]
         trace: Option<PathBuf>,
     },

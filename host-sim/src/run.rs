@@ -153,7 +153,8 @@ impl Preloaded {
         self.run(config, |e, _| {
             trajectory.push(*e, times.next().copied().unwrap_or(u64::MAX));
         })?;
-        Ok(trajectory.finish())
+        while trajectory.flush().is_some() {}
+        Ok(trajectory.into_poses())
     }
 }
 
@@ -185,24 +186,33 @@ impl Trajectory {
         })
     }
 
-    /// Takes the estimate of the frame at `timestamp_us`.
-    pub fn push(&mut self, estimate: Estimate, timestamp_us: u64) {
-        if let Some(e) = self.smoother.push(estimate, timestamp_us) {
-            self.lift(&e);
-        }
+    /// The smoother's lag, frames (0: the odometer's estimates as they are).
+    pub fn lag_frames(&self) -> u8 {
+        self.smoother.lag_frames()
     }
 
-    /// The poses, every frame's, once the last frames held for the lag are let out.
-    pub fn finish(mut self) -> Vec<Pose> {
-        while let Some(e) = self.smoother.flush() {
-            self.lift(&e);
-        }
+    /// Takes the estimate of the frame at `timestamp_us`; the estimate the smoother hands back
+    /// (`lag_frames` frames earlier), if any, whose pose is now the trajectory's last.
+    pub fn push(&mut self, estimate: Estimate, timestamp_us: u64) -> Option<Estimate> {
+        let e = self.smoother.push(estimate, timestamp_us)?;
+        Some(self.lift(e))
+    }
+
+    /// At the end of the run, the next estimate the smoother still holds, if any.
+    pub fn flush(&mut self) -> Option<Estimate> {
+        let e = self.smoother.flush()?;
+        Some(self.lift(e))
+    }
+
+    /// The poses of the estimates handed back, in order (every frame's, once flushed).
+    pub fn into_poses(self) -> Vec<Pose> {
         self.poses
     }
 
-    fn lift(&mut self, e: &Estimate) {
+    fn lift(&mut self, e: Estimate) -> Estimate {
         self.poses
             .push(pose_of(&self.config.lift().camera_pose(&e.pose)));
+        e
     }
 }
 
@@ -313,7 +323,7 @@ pub fn run_sequence(
             .process(&frame, t_us)
             .with_context(|| format!("frame {i:06}"))?;
         odometry += t1.elapsed();
-        trajectory.push(est, t_us);
+        let smoothed = trajectory.push(est, t_us);
         if let Some(out) = quality_out.as_mut() {
             let q = &est.quality;
             let line = QualityLine {
@@ -339,18 +349,29 @@ pub fn run_sequence(
             writeln!(out, "{}", serde_json::to_string(&line)?)?;
         }
         if let Some(out) = trace_out.as_mut() {
-            writeln!(out, "{}", trace_line(i, &est))?;
+            writeln!(out, "{}", trace_line("estimate", i, &est))?;
+            if let Some(s) = smoothed.filter(|_| trajectory.lag_frames() > 0) {
+                let frame = i.saturating_sub(usize::from(trajectory.lag_frames()));
+                writeln!(out, "{}", trace_line("smoothed", frame, &s))?;
+            }
         }
         estimates.push(est);
         bar.inc(1);
     }
     bar.finish_and_clear();
+    let mut frame = seq.frames - usize::from(trajectory.lag_frames()).min(seq.frames);
+    while let Some(s) = trajectory.flush() {
+        if let Some(out) = trace_out.as_mut() {
+            writeln!(out, "{}", trace_line("smoothed", frame, &s))?;
+        }
+        frame += 1;
+    }
     for mut out in [quality_out, trace_out].into_iter().flatten() {
         out.flush()?;
     }
     Ok(RunOutput {
         estimates,
-        poses: trajectory.finish(),
+        poses: trajectory.into_poses(),
         odometry,
         decode,
     })

@@ -222,9 +222,37 @@ fn the_smoother_keeps_every_frame_leaves_the_paper_alone_and_refuses_a_long_lag(
         std::fs::read_to_string(out).unwrap()
     };
     let plain = run("plain.txt", &[]);
-    let smoothed = run("smoothed.txt", &["--set", "smooth_lag_frames=2"]);
+    let trace = dir.path().join("trace.txt");
+    let smoothed = run(
+        "smoothed.txt",
+        &[
+            "--set",
+            "smooth_lag_frames=2",
+            "--trace",
+            trace.to_str().unwrap(),
+        ],
+    );
     assert_eq!(smoothed.lines().count(), 12);
     assert_ne!(smoothed, plain);
+    // Each frame's estimate, then from the third on the smoothed one two frames back.
+    let trace = std::fs::read_to_string(trace).unwrap();
+    let kinds: Vec<(&str, usize)> = trace
+        .lines()
+        .map(|l| {
+            let mut words = l.split(' ');
+            let kind = words.next().unwrap();
+            (kind, words.next().unwrap().parse().unwrap())
+        })
+        .collect();
+    let mut expected = Vec::new();
+    for i in 0..12 {
+        expected.push(("estimate", i));
+        if i >= 2 {
+            expected.push(("smoothed", i - 2));
+        }
+    }
+    expected.extend([("smoothed", 10), ("smoothed", 11)]);
+    assert_eq!(kinds, expected);
     let paper = ["--method", "paper"];
     assert_eq!(
         run(
