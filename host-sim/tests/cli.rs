@@ -26,6 +26,28 @@ fn refused(args: &[&str]) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
+/// `roadvo run` on `seq` with `extra` arguments, its poses written to `dir/name`: the poses.
+fn run_poses(dir: &Path, seq: &Path, name: &str, extra: &[&str]) -> String {
+    let out = dir.join(name);
+    let mut args = vec!["run", seq.to_str().unwrap(), "--out", out.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    roadvo(&args);
+    std::fs::read_to_string(out).unwrap()
+}
+
+/// `roadvo run` on `seq` with `--set assignment`, expecting a refusal: its error output.
+fn run_refused_with(dir: &Path, seq: &Path, assignment: &str) -> String {
+    let out = dir.join("refused.txt");
+    refused(&[
+        "run",
+        seq.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--set",
+        assignment,
+    ])
+}
+
 /// Renders the first `frames` frames of `scenario` into `out`.
 fn simulate(scenario: &str, out: &Path, frames: usize) {
     let frames = frames.to_string();
@@ -174,13 +196,7 @@ fn set_runs_as_the_edited_mount_file_would_and_names_a_bad_key() {
             .replace("yaw_deg = 0.0", "yaw_deg = 0.5"),
     )
     .unwrap();
-    let run = |name: &str, extra: &[&str]| {
-        let out = dir.path().join(name);
-        let mut args = vec!["run", seq.to_str().unwrap(), "--out", out.to_str().unwrap()];
-        args.extend_from_slice(extra);
-        roadvo(&args);
-        std::fs::read_to_string(out).unwrap()
-    };
+    let run = |name: &str, extra: &[&str]| run_poses(dir.path(), &seq, name, extra);
     let from_file = run("file.txt", &["--mount", edited.to_str().unwrap()]);
     let from_set = run(
         "set.txt",
@@ -194,15 +210,7 @@ fn set_runs_as_the_edited_mount_file_would_and_names_a_bad_key() {
     assert_eq!(from_set, from_file);
     assert_ne!(from_set, run("plain.txt", &[]));
 
-    let x = dir.path().join("x.txt");
-    let err = refused(&[
-        "run",
-        seq.to_str().unwrap(),
-        "--out",
-        x.to_str().unwrap(),
-        "--set",
-        "max_roll_change=0",
-    ]);
+    let err = run_refused_with(dir.path(), &seq, "max_roll_change=0");
     assert!(
         err.contains("--set max_roll_change=0: [odometer] has no key `max_roll_change`"),
         "{err}"
@@ -214,13 +222,7 @@ fn the_smoother_keeps_every_frame_leaves_the_paper_alone_and_refuses_a_long_lag(
     let dir = tempfile::tempdir().unwrap();
     simulate("s-course", dir.path(), 12);
     let seq = dir.path().join("sequences/00");
-    let run = |name: &str, extra: &[&str]| {
-        let out = dir.path().join(name);
-        let mut args = vec!["run", seq.to_str().unwrap(), "--out", out.to_str().unwrap()];
-        args.extend_from_slice(extra);
-        roadvo(&args);
-        std::fs::read_to_string(out).unwrap()
-    };
+    let run = |name: &str, extra: &[&str]| run_poses(dir.path(), &seq, name, extra);
     let plain = run("plain.txt", &[]);
     let trace = dir.path().join("trace.txt");
     let smoothed = run(
@@ -262,15 +264,7 @@ fn the_smoother_keeps_every_frame_leaves_the_paper_alone_and_refuses_a_long_lag(
         run("paper.txt", &paper)
     );
 
-    let x = dir.path().join("x.txt");
-    let err = refused(&[
-        "run",
-        seq.to_str().unwrap(),
-        "--out",
-        x.to_str().unwrap(),
-        "--set",
-        "smooth_lag_frames=5",
-    ]);
+    let err = run_refused_with(dir.path(), &seq, "smooth_lag_frames=5");
     assert!(
         err.contains(
             "smooth_lag_frames: a smoothing lag of 5 frames is longer than the \
