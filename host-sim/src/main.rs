@@ -535,9 +535,13 @@ fn ground_truth_for(seq_dir: &Path) -> Option<PathBuf> {
 
 fn print_run_summary(run: &RunOutput, out: &Path) {
     let n = run.estimates.len();
+    let smoothing = match run.smooth_lag_frames {
+        0 => String::new(),
+        lag => format!(", heading smoothed over +-{lag} frames"),
+    };
     println!(
-        "{n} frames, {} fallbacks; odometry {:.1} ms ({:.0} frames/s single-threaded), \
-         PNG decoding {:.1} ms a frame; trajectory written to {}",
+        "{n} frames, {} fallbacks{smoothing}; odometry {:.1} ms ({:.0} frames/s \
+         single-threaded), PNG decoding {:.1} ms a frame; trajectory written to {}",
         run.fallbacks(),
         1e3 * run.odometry.as_secs_f64() / n.max(1) as f64,
         run.frames_per_s(),

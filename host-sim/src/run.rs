@@ -39,8 +39,10 @@ struct QualityLine {
 pub struct RunOutput {
     /// Per-frame estimates.
     pub estimates: Vec<Estimate>,
-    /// Camera-0 poses through the mount, KITTI format.
+    /// Camera-0 poses through the mount, KITTI format (smoothed if the mount file says so).
     pub poses: Vec<Pose>,
+    /// The heading smoother's lag, frames (0: none).
+    pub smooth_lag_frames: u8,
     /// Time in `process()` alone.
     pub odometry: Duration,
     /// Time decoding PNGs.
@@ -371,6 +373,7 @@ pub fn run_sequence(
     }
     Ok(RunOutput {
         estimates,
+        smooth_lag_frames: trajectory.lag_frames(),
         poses: trajectory.into_poses(),
         odometry,
         decode,
