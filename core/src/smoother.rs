@@ -401,7 +401,14 @@ mod tests {
         #[test]
         fn any_estimates_come_back_each_once_in_order(
             frames in proptest::collection::vec(
-                (any::<f32>(), any::<f32>(), any::<u16>(), any::<bool>(), any::<bool>(), 0u64..1_000_000),
+                (
+                    any::<f32>(),
+                    any::<f32>(),
+                    any::<u16>(),
+                    any::<bool>(),
+                    any::<bool>(),
+                    0u64..1_000_000,
+                ),
                 0..40,
             ),
             lag in 0u8..4,

@@ -5,8 +5,8 @@
 //! [`frame_store`]; `scripts/firmware` renders one, packs it, loads it into QEMU's PSRAM and
 //! compares what this firmware logs with the host's run, bit for bit). Each estimate goes out
 //! through defmt over semihosting, and again through the core's heading smoother two frames
-//! later, as `mounts/kitti.toml` runs it; QEMU exits with 0 when the drive is done and 1 on any error
-//! (a panic included).
+//! later, as `mounts/kitti.toml` runs it; QEMU exits with 0 when the drive is done and 1 on any
+//! error (a panic included).
 #![no_std]
 #![no_main]
 
@@ -138,7 +138,7 @@ fn replay(odometer: &mut Odometer) -> Result<(), Error> {
         Method::PitchVote => SMOOTH_LAG_FRAMES,
         Method::Paper => 0,
     };
-    // 472 bytes: on the stack, beside the call it outlives.
+    // 472 bytes, on the replay's stack for the whole drive.
     let mut smoother: Smoother<5> = Smoother::new(lag)?;
     let mut smoothed = 0u32;
     for index in 0..store.frames() {
