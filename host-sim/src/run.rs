@@ -194,14 +194,16 @@ impl Trajectory {
     }
 
     /// Takes the estimate of the frame at `timestamp_us`; the estimate the smoother hands back
-    /// (`lag_frames` frames earlier), if any, whose pose is now the trajectory's last.
-    pub fn push(&mut self, estimate: Estimate, timestamp_us: u64) -> Option<Estimate> {
+    /// (`lag_frames` frames earlier), if any, with its frame number: its pose is now the
+    /// trajectory's last.
+    pub fn push(&mut self, estimate: Estimate, timestamp_us: u64) -> Option<(usize, Estimate)> {
         let e = self.smoother.push(estimate, timestamp_us)?;
         Some(self.lift(e))
     }
 
-    /// At the end of the run, the next estimate the smoother still holds, if any.
-    pub fn flush(&mut self) -> Option<Estimate> {
+    /// At the end of the run, the next estimate the smoother still holds, if any, with its
+    /// frame number.
+    pub fn flush(&mut self) -> Option<(usize, Estimate)> {
         let e = self.smoother.flush()?;
         Some(self.lift(e))
     }
@@ -211,10 +213,12 @@ impl Trajectory {
         self.poses
     }
 
-    fn lift(&mut self, e: Estimate) -> Estimate {
+    /// Appends `e`'s pose; `e` with its frame number (the poses before it).
+    fn lift(&mut self, e: Estimate) -> (usize, Estimate) {
+        let frame = self.poses.len();
         self.poses
             .push(pose_of(&self.config.lift().camera_pose(&e.pose)));
-        e
+        (frame, e)
     }
 }
 
@@ -352,8 +356,7 @@ pub fn run_sequence(
         }
         if let Some(out) = trace_out.as_mut() {
             writeln!(out, "{}", trace_line("estimate", i, &est))?;
-            if let Some(s) = smoothed.filter(|_| trajectory.lag_frames() > 0) {
-                let frame = i.saturating_sub(usize::from(trajectory.lag_frames()));
+            if let Some((frame, s)) = smoothed.filter(|_| trajectory.lag_frames() > 0) {
                 writeln!(out, "{}", trace_line("smoothed", frame, &s))?;
             }
         }
@@ -361,12 +364,10 @@ pub fn run_sequence(
         bar.inc(1);
     }
     bar.finish_and_clear();
-    let mut frame = seq.frames - usize::from(trajectory.lag_frames()).min(seq.frames);
-    while let Some(s) = trajectory.flush() {
+    while let Some((frame, s)) = trajectory.flush() {
         if let Some(out) = trace_out.as_mut() {
             writeln!(out, "{}", trace_line("smoothed", frame, &s))?;
         }
-        frame += 1;
     }
     for mut out in [quality_out, trace_out].into_iter().flatten() {
         out.flush()?;
