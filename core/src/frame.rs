@@ -1,6 +1,16 @@
 //! How frames reach the core: a small trait over 8-bit grey rows, so that a camera's DMA line
 //! buffer or a strided frame buffer can be read in place, without copying.
 
+/// Size of a camera's frames, pixels.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ImageSize {
+    /// Columns, pixels.
+    pub width_px: u16,
+    /// Rows, pixels.
+    pub height_px: u16,
+}
+
 /// An 8-bit grey camera frame, read a row at a time.
 pub trait Frame {
     /// Columns, pixels.

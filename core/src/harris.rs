@@ -12,7 +12,7 @@
 //! `RESPONSE_SHIFT` as `i32`. A corner is a 3x3 local maximum at or above the configured
 //! threshold; a parabola through its neighbours' responses gives its sub-pixel position.
 
-use crate::config::ValidConfig;
+use crate::config::{DETECTOR_BORDER_PX, ValidConfig, inside_border};
 use crate::frame::Frame;
 use crate::projection::{GroundPoint, Pixel};
 use fixed::types::I16F16;
@@ -27,7 +27,11 @@ const K_SHIFT: u32 = 7;
 const RESPONSE_SHIFT: u32 = 16;
 /// Corners keep this far from the frame's edge, pixels: Sobel, box sum and suppression each
 /// need one more pixel around.
-const BORDER: u16 = 3;
+const BORDER: u16 = DETECTOR_BORDER_PX;
+const _: () = assert!(
+    BORDER == 3,
+    "the line buffers below read three rows and columns around"
+);
 
 /// A detected corner. Ordered by response first, so heaps keep the strongest.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -154,26 +158,6 @@ fn parabola_peak(before: i32, at: i32, after: i32) -> I16F16 {
     I16F16::from_bits(q.clamp(-(1 << 15), 1 << 15) as i32)
 }
 
-/// The rows of a frame of the configured size that [`detect`] reads: the region of interest and
-/// the detector's border around it. A camera may deliver only these (a readout window, a DMA of
-/// part of the frame); the rest of a frame is never looked at.
-pub fn rows_read(cfg: &ValidConfig) -> core::ops::Range<u16> {
-    let roi = cfg.roi();
-    match inside_border(roi.top_px, roi.bottom_px, cfg.config().image.height_px) {
-        Some((top, bottom)) => top - BORDER..bottom + BORDER + 1,
-        None => 0..0,
-    }
-}
-
-/// `lo..=hi` clipped to the pixels at least `BORDER` inside `0..len`; `None` if nothing is left.
-fn inside_border(lo: u16, hi: u16, len: u16) -> Option<(u16, u16)> {
-    if len <= 2 * BORDER {
-        return None;
-    }
-    let (lo, hi) = (lo.max(BORDER), hi.min(len - 1 - BORDER));
-    (lo <= hi).then_some((lo, hi))
-}
-
 /// Finds the corners of `frame` inside the ground window of `cfg` into `out` (cleared first).
 pub fn detect<F: Frame + ?Sized, const K: usize>(
     frame: &F,
@@ -186,8 +170,8 @@ pub fn detect<F: Frame + ?Sized, const K: usize>(
     let Some((left, right)) = inside_border(roi.left_px, roi.right_px, frame.width()) else {
         return;
     };
-    let limit = usize::from(cfg.config().features_per_side);
-    let threshold = i32::try_from(cfg.config().corner_threshold).unwrap_or(i32::MAX);
+    let limit = usize::from(cfg.settings().features_per_side);
+    let threshold = i32::try_from(cfg.settings().corner_threshold).unwrap_or(i32::MAX);
     let mut x0 = left;
     while x0 <= right {
         let x1 = (x0 + STRIP as u16 - 1).min(right);
@@ -329,8 +313,10 @@ enum Side {
 /// Which side of straight ahead a ground point lies, if it is inside the window.
 fn side(cfg: &ValidConfig, p: GroundPoint) -> Option<Side> {
     let (ahead_m, left_m) = cfg.window_coords(p);
-    let w = &cfg.config().window;
-    let inside = ahead_m >= w.near_m && ahead_m <= w.far_m && left_m.abs() <= w.half_width_m;
+    let w = cfg.settings();
+    let inside = ahead_m >= w.window_near_m
+        && ahead_m <= w.window_far_m
+        && left_m.abs() <= w.window_half_width_m;
     inside.then_some(if left_m >= 0.0 {
         Side::Left
     } else {
@@ -390,7 +376,7 @@ mod tests {
     fn detection_reads_exactly_rows_read() {
         for far_m in [12.0, 20.0] {
             let mut c = kitti_config();
-            c.window.far_m = far_m;
+            c.settings.window_far_m = far_m;
             let cfg = c.validate().unwrap();
             let img = frame_with_squares(&cfg, &[GroundPoint { x_m: 8.0, y_m: 1.0 }], 6);
             let f = Recording {
@@ -403,7 +389,7 @@ mod tests {
                 &mut HarrisScratch::new(),
                 &mut Corners::<32>::new(),
             );
-            let rows = rows_read(&cfg);
+            let rows = cfg.rows_read();
             assert!(rows.start > 150 && rows.end <= 376, "{rows:?}");
             assert_eq!(f.asked.get(), (rows.start, rows.end - 1));
         }
@@ -442,7 +428,7 @@ mod tests {
     #[test]
     fn keeps_only_the_strongest_per_side() {
         let mut c = kitti_config();
-        c.features_per_side = 2;
+        c.settings.features_per_side = 2;
         let cfg = c.validate().unwrap();
         let squares = [
             GroundPoint { x_m: 8.0, y_m: 1.0 },
@@ -490,8 +476,9 @@ mod tests {
         ) {
             // A small camera pitched down, so that small frames hold its window.
             let mut c = kitti_config();
-            c.image = crate::config::ImageSize { width_px: 80, height_px: 60 };
-            c.intrinsics = crate::projection::Intrinsics { fx_px: 60.0, fy_px: 60.0, cx_px: 40.0, cy_px: 30.0 };
+            c.camera = crate::projection::Camera {
+                width_px: 80, height_px: 60, fx_px: 60.0, fy_px: 60.0, cx_px: 40.0, cy_px: 30.0,
+            };
             c.mount.pitch_rad = -15.0 * core::f32::consts::PI / 180.0;
             let cfg = c.validate().unwrap();
             let n = usize::from(w) * usize::from(h);

@@ -13,35 +13,45 @@
 //! Homographies are built in `f64` once per configuration and stored as `f32`: the per-frame path
 //! only multiplies 3x3 matrices.
 
+use crate::frame::ImageSize;
+use crate::setting::settings;
 use nalgebra::{ArrayStorage, Matrix3, Vector3};
 
-/// Pinhole intrinsics of the (rectified, undistorted) camera.
-#[derive(Clone, Copy, Debug, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Intrinsics {
-    /// Horizontal focal length, pixels.
-    pub fx_px: f32,
-    /// Vertical focal length, pixels.
-    pub fy_px: f32,
-    /// Principal point, column, pixels.
-    pub cx_px: f32,
-    /// Principal point, row, pixels.
-    pub cy_px: f32,
+settings! {
+    /// The camera: its frames' size and the pinhole intrinsics of the (rectified, undistorted)
+    /// image, a mount file's `[camera]` section.
+    pub struct Camera {
+        /// Columns of a frame, pixels.
+        width_px: u16 = val(0) required, min 1 => "width_px";
+        /// Rows of a frame, pixels.
+        height_px: u16 = val(0) required, min 1 => "height_px";
+        /// Horizontal focal length, pixels.
+        fx_px: f32 = val(0.0) required, above 0.0, max 100000.0 => "fx_px";
+        /// Vertical focal length, pixels.
+        fy_px: f32 = val(0.0) required, above 0.0, max 100000.0 => "fy_px";
+        /// Principal point, column, pixels.
+        cx_px: f32 = val(0.0) required, min -100000.0, max 100000.0 => "cx_px";
+        /// Principal point, row, pixels.
+        cy_px: f32 = val(0.0) required, min -100000.0, max 100000.0 => "cy_px";
+    }
 }
 
-impl Intrinsics {
-    /// All zeros: a placeholder (a zero focal length does not validate).
-    pub const ZERO: Self = Self {
-        fx_px: 0.0,
-        fy_px: 0.0,
-        cx_px: 0.0,
-        cy_px: 0.0,
-    };
+impl Camera {
+    /// The size of its frames.
+    pub fn image(&self) -> ImageSize {
+        ImageSize {
+            width_px: self.width_px,
+            height_px: self.height_px,
+        }
+    }
 
-    /// Intrinsics from a KITTI `P0` projection matrix (3x4, row-major: `fx 0 cx tx; 0 fy cy ty;
-    /// 0 0 1 0`). The fourth column (a stereo baseline, zero for camera 0) is ignored.
-    pub fn from_kitti_p0(p: &[f32; 12]) -> Self {
+    /// A camera of frames of `image` and the intrinsics of a KITTI `P0` projection matrix (3x4,
+    /// row-major: `fx 0 cx tx; 0 fy cy ty; 0 0 1 0`). The fourth column (a stereo baseline, zero
+    /// for camera 0) is ignored.
+    pub fn from_kitti_p0(image: ImageSize, p: &[f32; 12]) -> Self {
         Self {
+            width_px: image.width_px,
+            height_px: image.height_px,
             fx_px: p[0],
             fy_px: p[5],
             cx_px: p[2],
@@ -64,24 +74,25 @@ impl Intrinsics {
     }
 }
 
-/// Where and how the camera sits on the vehicle (its extrinsics), in the vehicle frame.
-#[derive(Clone, Copy, Debug, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Mount {
-    /// Camera centre ahead of the rear-axle centre, metres (negative: behind it).
-    pub x_m: f32,
-    /// Camera centre left of the vehicle's centre line, metres.
-    pub y_m: f32,
-    /// Camera centre above the road, metres. Must be positive.
-    pub height_m: f32,
-    /// Yaw of the optical axis, radians, counter-clockwise from the vehicle's x axis seen from
-    /// above. A rear-facing camera has yaw = pi.
-    pub yaw_rad: f32,
-    /// Pitch of the optical axis, radians, positive looking up (the paper's -20 deg looks down).
-    pub pitch_rad: f32,
-    /// Roll about the optical axis, radians: a right-handed turn about the forward axis, so a
-    /// positive roll lifts the camera's left side.
-    pub roll_rad: f32,
+settings! {
+    /// Where and how the camera sits on the vehicle (its extrinsics), in the vehicle frame: a
+    /// mount file's `[mount]` section.
+    pub struct Mount {
+        /// Camera centre ahead of the rear-axle centre, metres (negative: behind it).
+        x_m: f32 = val(0.0) required, min -50.0, max 50.0 => "x_m";
+        /// Camera centre left of the vehicle's centre line, metres.
+        y_m: f32 = val(0.0), min -10.0, max 10.0 => "y_m";
+        /// Camera centre above the road, metres.
+        height_m: f32 = val(0.0) required, above 0.0, max 20.0 => "height_m";
+        /// Yaw of the optical axis, counter-clockwise from the vehicle's x axis seen from above
+        /// (a rear-facing camera: 180 deg).
+        yaw_rad: f32 = deg(0.0), min -360.0, max 360.0 => "yaw_deg";
+        /// Pitch of the optical axis, positive looking up (the paper's -20 deg looks down).
+        pitch_rad: f32 = deg(0.0), min -90.0, max 90.0 => "pitch_deg";
+        /// Roll about the optical axis: a right-handed turn about the forward axis, so a
+        /// positive roll lifts the camera's left side.
+        roll_rad: f32 = deg(0.0), min -180.0, max 180.0 => "roll_deg";
+    }
 }
 
 /// Attitude of the vehicle body relative to the road, from suspension travel.
@@ -144,16 +155,6 @@ fn rot_z(a: f64) -> Matrix3<f64> {
 }
 
 impl Mount {
-    /// All zeros: a placeholder (a camera on the road does not validate).
-    pub const ZERO: Self = Self {
-        x_m: 0.0,
-        y_m: 0.0,
-        height_m: 0.0,
-        yaw_rad: 0.0,
-        pitch_rad: 0.0,
-        roll_rad: 0.0,
-    };
-
     /// Rotation taking camera-frame vectors into the vehicle frame (its columns are the camera's
     /// right, down and forward axes in vehicle coordinates), with the body at `attitude`.
     pub fn rotation_vehicle_from_camera(&self, attitude: Attitude) -> Matrix3<f64> {
@@ -198,14 +199,14 @@ impl Homography {
         image_to_ground: Matrix3::from_array_storage(ArrayStorage([[0.0; 3]; 3])),
     };
 
-    /// The homography for a camera with `intrinsics` on `mount`, the body at `attitude`. `None`
+    /// The homography for a camera `camera` on `mount`, the body at `attitude`. `None`
     /// where the ground plane is seen edge-on (the camera lies in the plane of the road).
-    pub fn new(intrinsics: &Intrinsics, mount: &Mount, attitude: Attitude) -> Option<Self> {
+    pub fn new(camera: &Camera, mount: &Mount, attitude: Attitude) -> Option<Self> {
         let r_cv = mount.rotation_vehicle_from_camera(attitude).transpose();
         let t = -(r_cv * mount.position_vehicle());
         // Ground points have z = 0: the third column of R drops out (paper eq. 5).
         let rt = Matrix3::from_columns(&[r_cv.column(0).into(), r_cv.column(1).into(), t]);
-        let h = intrinsics.matrix() * rt;
+        let h = camera.matrix() * rt;
         let g = h.try_inverse()?;
         let finite = h.iter().chain(g.iter()).all(|x| x.is_finite());
         finite.then(|| Self {
@@ -268,7 +269,7 @@ impl RollMap {
     };
 
     /// The map for a body rolled by `roll_rad` (positive: left side up).
-    pub fn new(intrinsics: &Intrinsics, mount: &Mount, roll_rad: f32) -> Option<Self> {
+    pub fn new(camera: &Camera, mount: &Mount, roll_rad: f32) -> Option<Self> {
         if roll_rad == 0.0 {
             // Exactly: a level body's pixels go through untouched, not through K K^-1's
             // rounding (which would also change the paper method's results, and it has no roll).
@@ -279,7 +280,7 @@ impl RollMap {
             pitch_rad: 0.0,
             roll_rad,
         });
-        let k = intrinsics.matrix();
+        let k = camera.matrix();
         let m = k * level.transpose() * rolled * k.try_inverse()?;
         m.iter().all(|x| x.is_finite()).then(|| Self {
             rolled_to_level: m.cast::<f32>(),
@@ -356,10 +357,10 @@ pub struct GroundProjection {
 
 impl GroundProjection {
     /// Builds the five homographies; `None` if any is degenerate.
-    pub fn new(intrinsics: &Intrinsics, mount: &Mount, bounds: Attitude) -> Option<Self> {
+    pub fn new(camera: &Camera, mount: &Mount, bounds: Attitude) -> Option<Self> {
         let at = |p: f32, r: f32| {
             Homography::new(
-                intrinsics,
+                camera,
                 mount,
                 Attitude {
                     pitch_rad: p,
@@ -397,9 +398,9 @@ mod tests {
     const DEG: f32 = core::f32::consts::PI / 180.0;
 
     /// The KITTI camera 0 of the shared test configuration.
-    fn kitti() -> (Intrinsics, Mount) {
+    fn kitti() -> (Camera, Mount) {
         let c = crate::config::tests::kitti_config();
-        (c.intrinsics, c.mount)
+        (c.camera, c.mount)
     }
 
     #[test]

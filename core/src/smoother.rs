@@ -22,6 +22,7 @@
 use crate::motion::{Motion, Pose2};
 use crate::odometer::Estimate;
 use crate::projection::GroundPoint;
+use crate::time::{Duration, Instant};
 use heapless::Deque;
 
 /// Why a smoother cannot be made.
@@ -58,8 +59,8 @@ struct Held {
     estimate: Estimate,
     /// The rear axle's step from the previous frame, in the previous frame's vehicle frame.
     step: Pose2,
-    /// Its timestamp, microseconds.
-    timestamp_us: u64,
+    /// Its timestamp.
+    timestamp: Instant,
     /// Time since the previous frame, seconds (0 for a drive's first frame).
     dt_s: f32,
     /// Weight of its turn rate in the fit.
@@ -79,7 +80,7 @@ pub struct Smoother<const N: usize = 5> {
     /// How many of `held` have been handed back.
     done: usize,
     /// The last frame pushed: its raw pose and timestamp, and its drive.
-    last: Option<(Pose2, u64, u32)>,
+    last: Option<(Pose2, Instant, u32)>,
     /// The smoothed pose of the last frame handed back.
     pose: Pose2,
 }
@@ -108,26 +109,26 @@ impl<const N: usize> Smoother<N> {
         u8::try_from(self.lag).unwrap_or(u8::MAX)
     }
 
-    /// Takes the estimate of the frame at `timestamp_us` (as given to the odometer); returns the
+    /// Takes the estimate of the frame at `timestamp` (as given to the odometer); returns the
     /// frame `lag` frames back, smoothed, once there is one. A start-up estimate (the odometer
     /// was reset) begins a new drive, which no fit reaches across.
-    pub fn push(&mut self, estimate: Estimate, timestamp_us: u64) -> Option<Estimate> {
+    pub fn push(&mut self, estimate: Estimate, timestamp: Instant) -> Option<Estimate> {
         if self.lag == 0 {
             return Some(estimate);
         }
         let startup = estimate.quality.startup;
-        let (step, dt_us, drive) = match self.last {
-            Some((pose, last_us, drive)) if !startup => (
+        let (step, dt, drive) = match self.last {
+            Some((pose, last, drive)) if !startup => (
                 pose.inverse().compose(&estimate.pose),
-                timestamp_us.saturating_sub(last_us),
+                timestamp.since(last).unwrap_or(Duration::ZERO),
                 drive,
             ),
-            Some((_, _, drive)) => (estimate.pose, 0, drive.wrapping_add(1)),
-            None => (estimate.pose, 0, 0),
+            Some((_, _, drive)) => (estimate.pose, Duration::ZERO, drive.wrapping_add(1)),
+            None => (estimate.pose, Duration::ZERO, 0),
         };
-        self.last = Some((estimate.pose, timestamp_us, drive));
+        self.last = Some((estimate.pose, timestamp, drive));
         let q = &estimate.quality;
-        let weight = if q.fallback || q.startup || dt_us == 0 {
+        let weight = if q.fallback || q.startup || dt == Duration::ZERO {
             0.0
         } else {
             let m = f32::from(q.tracks_matched);
@@ -136,8 +137,8 @@ impl<const N: usize> Smoother<N> {
         let held = Held {
             estimate,
             step,
-            timestamp_us,
-            dt_s: dt_us as f32 * 1e-6,
+            timestamp,
+            dt_s: dt.secs_f32(),
             weight,
             drive,
         };
@@ -199,8 +200,8 @@ impl<const N: usize> Smoother<N> {
             .skip(i.saturating_sub(self.lag))
             .take(2 * self.lag + 1);
         for h in window.filter(|h| h.drive == at.drive && h.dt_s > 0.0 && h.weight > 0.0) {
-            let apart_s = h.timestamp_us.abs_diff(at.timestamp_us) as f32 * 1e-6;
-            let x = if h.timestamp_us < at.timestamp_us {
+            let apart_s = h.timestamp.abs_diff(at.timestamp).secs_f32();
+            let x = if h.timestamp < at.timestamp {
                 -apart_s
             } else {
                 apart_s
@@ -295,7 +296,10 @@ mod tests {
     /// Every estimate of `frames` through a smoother of `lag`, flushed at the end.
     fn smoothed(frames: &[(Estimate, u64)], lag: u8) -> Vec<Estimate> {
         let mut s: Smoother<7> = Smoother::new(lag).unwrap();
-        let mut out: Vec<Estimate> = frames.iter().filter_map(|&(e, t)| s.push(e, t)).collect();
+        let mut out: Vec<Estimate> = frames
+            .iter()
+            .filter_map(|&(e, t)| s.push(e, Instant::from_micros(t)))
+            .collect();
         assert_eq!(out.len(), frames.len().saturating_sub(usize::from(lag)));
         out.extend(core::iter::from_fn(|| s.flush()));
         out
@@ -313,7 +317,7 @@ mod tests {
         let frames = drive(&[(0.01, 1.0, 30), (-0.03, 0.8, 5), (0.02, 1.2, 0)]);
         let mut s: Smoother<1> = Smoother::new(0).unwrap();
         for &(e, t) in &frames {
-            assert_eq!(s.push(e, t), Some(e));
+            assert_eq!(s.push(e, Instant::from_micros(t)), Some(e));
         }
         assert_eq!(s.flush(), None);
     }

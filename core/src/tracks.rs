@@ -21,6 +21,44 @@ pub struct Observation {
     pub pixel: Pixel,
 }
 
+/// A frame's observations, left and right of straight ahead, and which of them some track took.
+#[derive(Clone, Debug)]
+pub struct Observations<const F: usize> {
+    /// Per side (left, right), in the order of the side's corners.
+    pub sides: [Vec<Observation, F>; 2],
+    /// Per side, whether a track took the observation of that place.
+    pub taken: [[bool; F]; 2],
+}
+
+impl<const F: usize> Default for Observations<F> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const F: usize> Observations<F> {
+    /// None; `const` so that an odometer can be a zero-initialised `static`.
+    pub const fn new() -> Self {
+        Self {
+            sides: [Vec::new(), Vec::new()],
+            taken: [[false; F]; 2],
+        }
+    }
+
+    /// Marks every observation untaken.
+    pub fn untake_all(&mut self) {
+        self.taken = [[false; F]; 2];
+    }
+
+    /// The observations no track took: they start tracks.
+    pub fn untaken(&self) -> impl Iterator<Item = Observation> + '_ {
+        self.sides
+            .iter()
+            .zip(&self.taken)
+            .flat_map(|(obs, taken)| obs.iter().zip(taken).filter(|(_, t)| !**t).map(|(o, _)| *o))
+    }
+}
+
 /// One tracked feature.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -119,6 +157,17 @@ impl<const N: usize> Tracks<N> {
         for t in self.items.iter_mut() {
             t.ground = t.ground.moved_ahead(dx_m);
         }
+    }
+
+    /// Starts a track at each observation; returns how many a full pool refused.
+    pub fn spawn_all(&mut self, observations: impl Iterator<Item = Observation>) -> u16 {
+        let mut refused = 0u16;
+        for o in observations {
+            if self.spawn(o) == Spawn::Refused {
+                refused = refused.saturating_add(1);
+            }
+        }
+        refused
     }
 
     /// Starts a track at an observation (see the module docs for the policy when full).

@@ -1,29 +1,23 @@
 //! roadvo on a Cortex-M7, as an ECU integrates it: the odometer in a zero-initialised `static`,
 //! the configuration validated once at start-up, then one call to `process` per camera frame.
 //!
-//! The camera is stood in for by a recorded drive in the board's frame memory (see
-//! [`frame_store`]; `scripts/firmware` renders one, packs it, loads it into QEMU's PSRAM and
-//! compares what this firmware logs with the host's run, bit for bit). Each estimate goes out
-//! through defmt over semihosting, and again through the core's heading smoother two frames
-//! later, as `mounts/kitti.toml` runs it; QEMU exits with 0 when the drive is done and 1 on any
-//! error (a panic included).
+//! The camera is stood in for by a recorded drive in the board's frame memory, with the whole
+//! configuration it is to be run with (the core's `wire::frame_store`; `scripts/firmware` packs
+//! one with `roadvo pack`, loads it into QEMU's PSRAM and compares what this firmware logs with
+//! the host's run, bit for bit). Each estimate goes out through defmt over semihosting, and
+//! again through the core's heading smoother as the configuration's `smooth_lag_frames` says;
+//! QEMU exits with 0 when the drive is done and 1 on any error (a panic included).
 #![no_std]
 #![no_main]
 
-mod frame_store;
 mod log;
 mod stack;
 
 use cortex_m_rt::entry;
 use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
-use frame_store::{FrameStore, StoreError};
-use roadvo::{
-    Config, ConfigError, Estimate, FrameError, Method, Odometer, Smoother, SmootherError,
-};
-
-/// Frames of lag of the trajectory's heading smoother (the default method's; the paper's stays
-/// as written).
-const SMOOTH_LAG_FRAMES: u8 = 2;
+use roadvo::wire::frame_store::{FrameStore, StoreError};
+use roadvo::wire::trace;
+use roadvo::{ConfigError, Estimate, FrameError, Method, Odometer, Smoother, SmootherError};
 
 /// Why the replay stopped.
 #[derive(defmt::Format)]
@@ -103,13 +97,9 @@ pub extern "C" fn roadvo_frame_end() {
     core::hint::black_box(2u32);
 }
 
-/// Configures `odometer` for the drive's camera and mount, once at start-up.
+/// Configures `odometer` with the drive's configuration, once at start-up.
 fn configure(odometer: &mut Odometer, store: &FrameStore) -> Result<(), Error> {
-    let config = Config {
-        method: store.method(),
-        ..Config::with_defaults(store.image(), store.intrinsics(), store.mount())
-    }
-    .validate()?;
+    let config = store.header().config.validate()?;
     let rows = config.rows_read();
     if !store.holds_rows(rows.clone()) {
         return Err(Error::RowsMissing {
@@ -126,32 +116,35 @@ fn replay(odometer: &mut Odometer) -> Result<(), Error> {
     let store = FrameStore::open(camera_memory())?;
     configure(odometer, &store)?;
     let rows = odometer.config().rows_read();
+    let camera = odometer.config().config().camera;
     defmt::println!(
         "odometer {=usize} bytes, reading rows {=u16}..{=u16} of {=u16}x{=u16} frames",
         size_of::<Odometer>(),
         rows.start,
         rows.end,
-        store.image().width_px,
-        store.image().height_px
+        camera.width_px,
+        camera.height_px
     );
-    let lag = match odometer.config().config().method {
-        Method::PitchVote => SMOOTH_LAG_FRAMES,
+    let settings = odometer.config().settings();
+    // The paper's method stays as written: no smoother.
+    let lag = match settings.method {
+        Method::PitchVote => settings.smooth_lag_frames,
         Method::Paper => 0,
     };
-    // 472 bytes, on the replay's stack for the whole drive.
-    let mut smoother: Smoother<5> = Smoother::new(lag)?;
+    // On the replay's stack for the whole drive: up to four frames of lag.
+    let mut smoother: Smoother<9> = Smoother::new(lag)?;
     let mut smoothed = 0u32;
-    for index in 0..store.frames() {
-        let Some((frame, timestamp_us)) = store.frame(index) else {
+    for index in 0..store.header().frames {
+        let Some((frame, timestamp)) = store.frame(index) else {
             return Err(StoreError::Truncated.into());
         };
         roadvo_frame_begin();
-        let estimate = odometer.process(&frame, timestamp_us);
+        let estimate = odometer.process(&frame, timestamp);
         roadvo_frame_end();
         let e = estimate.map_err(|error| Error::Frame { index, error })?;
         log_estimate("estimate", index, &e);
         defmt::debug!("{}", e);
-        if let Some(s) = smoother.push(e, timestamp_us).filter(|_| lag > 0) {
+        if let Some(s) = smoother.push(e, timestamp).filter(|_| lag > 0) {
             log_estimate("smoothed", smoothed, &s);
             smoothed += 1;
         }
@@ -163,7 +156,7 @@ fn replay(odometer: &mut Odometer) -> Result<(), Error> {
     let pose = odometer.pose();
     defmt::println!(
         "final pose after {=u32} frames: x {=f32} m, y {=f32} m, heading {=f32} rad",
-        store.frames(),
+        store.header().frames,
         pose.x_m,
         pose.y_m,
         pose.heading_rad
@@ -171,25 +164,25 @@ fn replay(odometer: &mut Odometer) -> Result<(), Error> {
     Ok(())
 }
 
-/// Logs frame `index`'s estimate `e` as `kind` (`estimate` or `smoothed`) with its f32 bit
-/// patterns, for the comparison with the host (`roadvo run --trace`).
+/// Logs frame `index`'s estimate `e` as `kind` (`estimate` or `smoothed`): its trace record
+/// (`roadvo::wire::trace`), for the comparison with the host (`roadvo run --trace`).
 fn log_estimate(kind: &str, index: u32, e: &Estimate) {
-    let q = &e.quality;
+    let [a, b, c, d, f, g, h, i, j, k, l] = trace::record(e);
     defmt::println!(
-        "{=str} {=u32} {=u32} {=u32} {=u32} {=u32} {=u32} {=u32} {=u32} {=u16} {=u16} {=u8} {=u16}",
+        "{=str} {=u32} {=u32} {=u32} {=u32} {=u32} {=u32} {=u32} {=u32} {=u32} {=u32} {=u32} {=u32}",
         kind,
         index,
-        e.motion.distance_m.to_bits(),
-        e.motion.heading_change_rad.to_bits(),
-        e.pose.x_m.to_bits(),
-        e.pose.y_m.to_bits(),
-        e.pose.heading_rad.to_bits(),
-        q.pitch_rad.to_bits(),
-        q.inlier_ratio.to_bits(),
-        q.features_detected,
-        q.tracks_matched,
-        u8::from(q.fallback),
-        q.features_comoving
+        a,
+        b,
+        c,
+        d,
+        f,
+        g,
+        h,
+        i,
+        j,
+        k,
+        l
     );
 }
 

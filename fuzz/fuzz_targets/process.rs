@@ -4,11 +4,11 @@
 
 use arbitrary::Arbitrary;
 use libfuzzer_sys::fuzz_target;
-use roadvo::{Config, ImageSize, Intrinsics, Method, Mount, Odometer, SliceFrame};
+use roadvo::{Camera, Config, Instant, Method, Mount, Odometer, SliceFrame};
 
 /// A camera drawn from plausible ranges, so that most inputs validate and reach the vote.
 #[derive(Arbitrary, Debug)]
-struct Camera {
+struct Rig {
     width: u16,
     height: u16,
     focal: u8,
@@ -35,19 +35,17 @@ struct Shot {
 
 #[derive(Arbitrary, Debug)]
 struct Input {
-    camera: Camera,
+    camera: Rig,
     shots: Vec<Shot>,
 }
 
-fn config(c: &Camera) -> Config {
+fn config(c: &Rig) -> Config {
     let (w, h) = (16 + c.width % 1300, 16 + c.height % 400);
     let (wf, hf) = (f32::from(w), f32::from(h));
     let mut config = Config::with_defaults(
-        ImageSize {
+        Camera {
             width_px: w,
             height_px: h,
-        },
-        Intrinsics {
             fx_px: wf * (0.2 + f32::from(c.focal) / 100.0),
             fy_px: wf * (0.2 + f32::from(c.focal) / 100.0),
             cx_px: wf * f32::from(c.cx) / 255.0,
@@ -63,7 +61,7 @@ fn config(c: &Camera) -> Config {
         },
     );
     if c.paper {
-        config.method = Method::Paper;
+        config.settings.method = Method::Paper;
     }
     config
 }
@@ -75,7 +73,7 @@ fuzz_target!(|input: Input| {
     let Ok(mut odometer) = Odometer::<128, 32, 64>::new(valid).map(Box::new) else {
         return;
     };
-    let size = valid.config().image;
+    let size = valid.config().camera;
     let (w, h) = (usize::from(size.width_px), usize::from(size.height_px));
     let mut pixels = vec![0u8; w * h];
     let mut t: u64 = 1_000_000;
@@ -89,7 +87,7 @@ fuzz_target!(|input: Input| {
         let width = if shot.wrong_size { w - 1 } else { w };
         let frame = SliceFrame::new(&pixels, width as u16, h as u16, w).expect("buffer fits");
         let before = odometer.pose();
-        match odometer.process(&frame, t) {
+        match odometer.process(&frame, Instant::from_micros(t)) {
             Ok(e) => assert!(e.pose.x_m.is_finite() && e.pose.heading_rad.is_finite()),
             Err(_) => assert_eq!(odometer.pose(), before),
         }

@@ -21,20 +21,20 @@
 
 use crate::eval::evaluate;
 use crate::kitti::{Pose, Sequence};
-use crate::mount::{MethodName, MountFile};
+use crate::mount::MountFile;
 use crate::run::{Preloaded, config_for};
 use anyhow::{Result, bail};
 use rayon::prelude::*;
+use roadvo::Method;
 use std::ops::Range;
 use std::time::{Duration, Instant};
 
-/// One refined parameter: its name, how to read and write it in the mount file, its first and
-/// last step.
+/// One refined parameter: its name, its key in the mount file, its first and last step.
 struct Parameter {
     name: &'static str,
     unit: &'static str,
-    get: fn(&MountFile) -> f32,
-    set: fn(&mut MountFile, f32),
+    /// Its key in `[mount]`: varied in the file's unit (degrees for angles).
+    key: &'static str,
     first_step: f32,
     last_step: f32,
 }
@@ -43,40 +43,35 @@ const PARAMETERS: [Parameter; 5] = [
     Parameter {
         name: "pitch",
         unit: "deg",
-        get: |m| m.mount.pitch_deg,
-        set: |m, v| m.mount.pitch_deg = v,
+        key: "pitch_deg",
         first_step: 0.4,
         last_step: 0.025,
     },
     Parameter {
         name: "yaw",
         unit: "deg",
-        get: |m| m.mount.yaw_deg,
-        set: |m, v| m.mount.yaw_deg = v,
+        key: "yaw_deg",
         first_step: 0.4,
         last_step: 0.025,
     },
     Parameter {
         name: "roll",
         unit: "deg",
-        get: |m| m.mount.roll_deg,
-        set: |m, v| m.mount.roll_deg = v,
+        key: "roll_deg",
         first_step: 0.4,
         last_step: 0.025,
     },
     Parameter {
         name: "height",
         unit: "m",
-        get: |m| m.mount.height_m,
-        set: |m, v| m.mount.height_m = v,
+        key: "height_m",
         first_step: 0.08,
         last_step: 0.005,
     },
     Parameter {
         name: "x (ahead of the rear axle)",
         unit: "m",
-        get: |m| m.mount.x_m,
-        set: |m, v| m.mount.x_m = v,
+        key: "x_m",
         first_step: 0.4,
         last_step: 0.025,
     },
@@ -130,18 +125,18 @@ fn cost(
     frames: &Preloaded,
     gt: &[Pose],
     mount: &MountFile,
-    method: Option<MethodName>,
+    method: Option<Method>,
     metric: Metric,
 ) -> Result<f64> {
     let costs = HEIGHT_SPREAD_MM
         .par_iter()
         .map(|mm| {
-            let mut moved = mount.clone();
+            let mut moved = *mount;
             moved.mount.height_m += mm * 1e-3;
             let Ok(config) = config_for(seq, &moved, method) else {
                 return Ok(f64::INFINITY);
             };
-            let report = evaluate(gt, &frames.poses(&moved, config)?)?;
+            let report = evaluate(gt, &frames.poses(config)?)?;
             let figures = match metric {
                 Metric::Short => (report.short_t_err_pct, report.short_r_err_deg_per_m),
                 Metric::Kitti => (report.t_err_pct, report.r_err_deg_per_m),
@@ -170,7 +165,7 @@ pub fn calibrate(
     gt: &[Pose],
     section: Range<usize>,
     start: &MountFile,
-    method: Option<MethodName>,
+    method: Option<Method>,
     metric: Metric,
     max_evaluations: usize,
     mut progress: impl FnMut(usize, f64),
@@ -193,7 +188,7 @@ pub fn calibrate(
     }
     let frames = Preloaded::load(seq, section.clone())?;
     let gt = &gt[section];
-    let mut best = start.clone();
+    let mut best = *start;
     let mut best_cost = cost(seq, &frames, gt, &best, method, metric)?;
     if !best_cost.is_finite() {
         bail!("the starting mount does not make a valid configuration for this sequence");
@@ -217,8 +212,8 @@ pub fn calibrate(
                 if evaluations >= max_evaluations {
                     break 'search;
                 }
-                let mut candidate = best.clone();
-                (p.set)(&mut candidate, (p.get)(&best) + sign * step);
+                let mut candidate = best;
+                candidate.set_mount_value(p.key, best.mount_value(p.key) + sign * step);
                 let c = cost(seq, &frames, gt, &candidate, method, metric)?;
                 evaluations += 1;
                 progress(evaluations, c);
@@ -238,7 +233,14 @@ pub fn calibrate(
     }
     let changes = PARAMETERS
         .iter()
-        .map(|p| (p.name, p.unit, (p.get)(start), (p.get)(&best)))
+        .map(|p| {
+            (
+                p.name,
+                p.unit,
+                start.mount_value(p.key),
+                best.mount_value(p.key),
+            )
+        })
         .collect();
     Ok(Calibration {
         mount: best,

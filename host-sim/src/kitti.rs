@@ -273,6 +273,11 @@ impl Sequence {
         })
     }
 
+    /// Frame `i`'s timestamp, to the microsecond, as every run of the odometer gives it.
+    pub fn timestamp(&self, i: usize) -> roadvo::Instant {
+        roadvo::Instant::from_micros((self.times_s[i] * 1e6).round() as u64)
+    }
+
     /// Loads frame `i` as 8-bit grey; it must have the size of the first frame.
     pub fn load(&self, i: usize) -> Result<GrayImage, KittiError> {
         let path = image_path(&self.dir, i);

@@ -17,3 +17,17 @@ pub mod run;
 pub mod scenario;
 pub mod sensitivity;
 pub mod simulate;
+
+/// Hears of long work: [`start`](Self::start) once with the number of steps, then
+/// [`step`](Self::step) as each is done, possibly from several threads. The command line shows
+/// a progress bar; `()` hears nothing.
+pub trait Progress: Sync {
+    /// The work has `total` steps.
+    fn start(&self, total: usize) {
+        let _ = total;
+    }
+    /// One more step is done.
+    fn step(&self) {}
+}
+
+impl Progress for () {}

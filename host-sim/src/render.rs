@@ -10,7 +10,7 @@
 use crate::path::{Path, WorldPose};
 use crate::scenario::{Crown, Kerb, Scenario};
 use image::GrayImage;
-use roadvo::{Attitude, Intrinsics, Mount};
+use roadvo::{Attitude, Camera, Mount};
 
 /// A 64-bit mix (splitmix64's finaliser): decorrelates neighbouring integer inputs.
 fn mix(mut z: u64) -> u64 {
@@ -326,7 +326,7 @@ pub struct FrameState {
 pub struct Scene {
     index: PathIndex,
     surface: Surface,
-    intrinsics: Intrinsics,
+    camera: Camera,
     mount: Mount,
     width: u32,
     height: u32,
@@ -355,10 +355,10 @@ impl Scene {
                 kerb: scenario.kerb.clone(),
                 crown: scenario.crown.clone(),
             },
-            intrinsics: cfg.intrinsics,
+            camera: cfg.camera,
             mount: cfg.mount,
-            width: u32::from(cfg.image.width_px),
-            height: u32::from(cfg.image.height_px),
+            width: u32::from(cfg.camera.width_px),
+            height: u32::from(cfg.camera.height_px),
             supersample: u32::from(scenario.render.supersample),
             noise_dn: scenario.render.noise_dn,
             lane_width_m: scenario.render.lane_width_m,
@@ -503,7 +503,7 @@ impl Scene {
             .pose
             .to_world(f64::from(self.mount.x_m), f64::from(self.mount.y_m));
         let o = [cx, cy, f64::from(self.mount.height_m)];
-        let k = &self.intrinsics;
+        let k = &self.camera;
         let (fx, fy) = (f64::from(k.fx_px), f64::from(k.fy_px));
         let (px, py) = (f64::from(k.cx_px), f64::from(k.cy_px));
         let n = self.supersample;

@@ -69,9 +69,10 @@
 //! pitch_deg = 1.0
 //! ```
 
-use crate::mount::{CameraSection, MountFile, MountSection, OdometerSection};
+use crate::mount::MountFile;
 use crate::path::{Segment, SpeedKnot, check_speed_profile};
 use anyhow::{Context, Result, bail};
+use roadvo::{Camera, Mount, Settings};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -223,12 +224,12 @@ pub struct Scenario {
     /// Frame rate, frames per second.
     pub frames_per_second: f64,
     /// Camera intrinsics and image size.
-    pub camera: CameraSection,
+    pub camera: Camera,
     /// The true mount.
-    pub mount: MountSection,
+    pub mount: Mount,
     /// Odometer settings written into mount.toml.
     #[serde(default)]
-    pub odometer: OdometerSection,
+    pub odometer: Settings,
     /// The path, in order.
     #[serde(rename = "segment")]
     pub segments: Vec<Segment>,
@@ -382,21 +383,25 @@ impl Scenario {
     /// The mount file for this drive: the true mount, or with `with_error` the mount plus the
     /// scenario's calibration error (what `simulate` writes beside the images).
     pub fn mount_file(&self, with_error: bool) -> MountFile {
-        let mut mount = self.mount.clone();
+        let mut file = MountFile {
+            camera: self.camera,
+            mount: self.mount,
+            settings: self.odometer,
+        };
         if with_error {
             let e = &self.calibration_error;
-            mount.x_m += e.x_m;
-            mount.y_m += e.y_m;
-            mount.height_m += e.height_m;
-            mount.yaw_deg += e.yaw_deg;
-            mount.pitch_deg += e.pitch_deg;
-            mount.roll_deg += e.roll_deg;
+            for (key, error) in [
+                ("x_m", e.x_m),
+                ("y_m", e.y_m),
+                ("height_m", e.height_m),
+                ("yaw_deg", e.yaw_deg),
+                ("pitch_deg", e.pitch_deg),
+                ("roll_deg", e.roll_deg),
+            ] {
+                file.set_mount_value(key, file.mount_value(key) + error);
+            }
         }
-        MountFile {
-            camera: self.camera.clone(),
-            mount,
-            odometer: self.odometer.clone(),
-        }
+        file
     }
 
     /// The scenario as TOML.
@@ -450,6 +455,9 @@ mod tests {
         let end = path.pose_at(path.length_m());
         // Left 180 then right 180: heading back to zero.
         assert!(end.heading_rad.abs() < 1e-6, "{end:?}");
-        assert!((s.mount.pitch_deg + 20.0).abs() < 1e-6 && (s.mount.height_m - 2.7).abs() < 1e-6);
+        assert!(
+            (s.mount.pitch_rad + 20f32.to_radians()).abs() < 1e-6
+                && (s.mount.height_m - 2.7).abs() < 1e-6
+        );
     }
 }

@@ -18,11 +18,12 @@
 
 use crate::eval::{evaluate, heading_rad};
 use crate::kitti::{Pose, Sequence, read_poses};
-use crate::mount::{MethodName, MountFile};
+use crate::mount::MountFile;
 use crate::run::{Preloaded, config_for, mount_for};
 use crate::scenario::{Crown, Kerb, Scenario};
 use crate::simulate::{poses_path, sequence_dir, simulate};
 use anyhow::Result;
+use roadvo::Method;
 use std::path::Path;
 
 /// How a case departs from the best case.
@@ -65,17 +66,23 @@ fn cases() -> [Case; 11] {
         },
         Case {
             name: "roll +1 deg",
-            departure: Departure::Mount(|m| m.mount.roll_deg += 1.0),
+            departure: Departure::Mount(|m| {
+                m.set_mount_value("roll_deg", m.mount_value("roll_deg") + 1.0)
+            }),
             paper: (None, Some(0.04)),
         },
         Case {
             name: "pitch +1 deg",
-            departure: Departure::Mount(|m| m.mount.pitch_deg += 1.0),
+            departure: Departure::Mount(|m| {
+                m.set_mount_value("pitch_deg", m.mount_value("pitch_deg") + 1.0)
+            }),
             paper: (Some(13.0), None),
         },
         Case {
             name: "yaw +1 deg",
-            departure: Departure::Mount(|m| m.mount.yaw_deg += 1.0),
+            departure: Departure::Mount(|m| {
+                m.set_mount_value("yaw_deg", m.mount_value("yaw_deg") + 1.0)
+            }),
             paper: (None, Some(0.11)),
         },
         Case {
@@ -144,7 +151,7 @@ pub struct Row {
     /// The case.
     pub case: &'static str,
     /// The method.
-    pub method: MethodName,
+    pub method: Method,
     /// Path length error, percent (positive: too long).
     pub translation_pct: f64,
     /// Final heading error over the path length, deg/m.
@@ -201,7 +208,7 @@ pub fn sensitivity(
             if let Some(change) = change {
                 change(&mut sc);
             }
-            simulate(&sc, &dir, seed, frames, false)?;
+            simulate(&sc, &dir, seed, frames, &())?;
         }
         let seq = Sequence::open(&sequence_dir(&dir))?;
         let truth = read_poses(&poses_path(&dir))?;
@@ -214,9 +221,9 @@ pub fn sensitivity(
             for s in settings {
                 mount.set(s)?;
             }
-            for method in [MethodName::Default, MethodName::Paper] {
-                progress(&format!("{} ({method:?})", case.name));
-                let est = frames.poses(&mount, config_for(&seq, &mount, Some(method))?)?;
+            for method in Method::ALL {
+                progress(&format!("{} ({})", case.name, method.name()));
+                let est = frames.poses(config_for(&seq, &mount, Some(method))?)?;
                 let (t, r) = errors(&truth, &est);
                 rows.push(Row {
                     case: case.name,

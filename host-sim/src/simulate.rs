@@ -12,12 +12,12 @@
 //! The ground truth is the vehicle's planar path lifted through the true mount, so a perfect
 //! planar odometer scores zero; the body's suspension motion is a disturbance, not truth.
 
+use crate::Progress;
 use crate::kitti::{self, Pose};
 use crate::path::{DistanceClock, Path, WorldPose, speed_at};
 use crate::render::{BoxState, FrameState, Scene};
 use crate::scenario::Scenario;
 use anyhow::{Context, Result, bail};
-use indicatif::{ParallelProgressIterator, ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use roadvo::{Attitude, Pose2};
 use std::path::{Path as FsPath, PathBuf};
@@ -151,13 +151,13 @@ fn plan(scenario: &Scenario, path: &Path, frames: Option<usize>, seed: u64) -> R
 }
 
 /// Renders `scenario` into `out` (KITTI layout). `frames` cuts the drive short; `progress`
-/// shows a progress bar.
+/// hears of each frame rendered.
 pub fn simulate(
     scenario: &Scenario,
     out: &FsPath,
     seed: u64,
     frames: Option<usize>,
-    progress: bool,
+    progress: &dyn Progress,
 ) -> Result<Summary> {
     let path = Path::new(&scenario.segments).context("in the scenario's path")?;
     let drive = plan(scenario, &path, frames, seed)?;
@@ -206,29 +206,20 @@ pub fn simulate(
     kitti::write_text(&seq.join("scenario.toml"), &record)?;
 
     let scene = Scene::new(scenario, &path, seed);
-    let bar = if progress {
-        ProgressBar::new(n as u64).with_style(
-            ProgressStyle::with_template(
-                "rendering {bar:40} {pos}/{len} frames, {per_sec}, eta {eta}",
-            )
-            .expect("valid template"),
-        )
-    } else {
-        ProgressBar::hidden()
-    };
+    progress.start(n);
     let start = std::time::Instant::now();
     drive
         .states
         .par_iter()
         .enumerate()
-        .progress_with(bar.clone())
         .try_for_each(|(i, st)| -> Result<()> {
             let img = scene.render(st, i as u64);
             let file = kitti::image_path(&seq, i);
             img.save(&file)
-                .with_context(|| format!("cannot write {}", file.display()))
+                .with_context(|| format!("cannot write {}", file.display()))?;
+            progress.step();
+            Ok(())
         })?;
-    bar.finish_and_clear();
     Ok(Summary {
         frames: n,
         distance_m: drive.distance_m,

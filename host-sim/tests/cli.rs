@@ -126,7 +126,9 @@ fn bad_input_says_which_file_and_line() {
 }
 
 #[test]
-fn pack_stores_the_rows_the_odometer_reads_and_refuses_changed_settings() {
+fn pack_stores_the_configuration_and_the_rows_the_odometer_reads() {
+    use roadvo::wire::frame_store::FrameStore;
+    use roadvo::{Frame, Instant};
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().to_str().unwrap();
     roadvo(&[
@@ -140,42 +142,35 @@ fn pack_stores_the_rows_the_odometer_reads_and_refuses_changed_settings() {
     ]);
     let seq = dir.path().join("sequences/00");
     let store = dir.path().join("frames.bin");
+    // A changed setting travels with the frames.
     roadvo(&[
         "pack",
         seq.to_str().unwrap(),
         "--out",
         store.to_str().unwrap(),
+        "--set",
+        "features_per_side=16",
     ]);
     let bytes = std::fs::read(&store).unwrap();
-    let u16_at = |at: usize| usize::from(u16::from_le_bytes([bytes[at], bytes[at + 1]]));
-    assert_eq!(&bytes[..4], b"RVFS");
-    let (w, h, first, rows) = (u16_at(8), u16_at(10), u16_at(12), u16_at(14));
-    assert_eq!(u32::from_le_bytes(bytes[16..20].try_into().unwrap()), 3);
-    assert!(rows > 0 && first + rows <= h, "rows {first}+{rows} of {h}");
-    let frame = 8 + rows * w;
-    assert_eq!(bytes.len(), 64 + 3 * frame);
-    // Frame 2's band is the image's rows, byte for byte.
+    let store = FrameStore::open(&bytes).unwrap();
+    let h = store.header();
+    assert_eq!(h.frames, 3);
+    assert_eq!(h.config.settings.features_per_side, 16);
+    let config = h.config.validate().unwrap();
+    assert!(store.holds_rows(config.rows_read()));
+    // Frame 2's band is the image's rows, byte for byte, and its time the sequence's.
     let img = image::open(seq.join("image_0/000002.png"))
         .unwrap()
         .into_luma8();
-    let band = &img.as_raw()[first * w..(first + rows) * w];
-    assert_eq!(&bytes[64 + 2 * frame + 8..64 + 3 * frame], band);
-
-    // The store carries camera and mount only: a changed odometer setting is refused.
-    let mount = std::fs::read_to_string(seq.join("mount.toml")).unwrap();
-    let changed = dir.path().join("changed.toml");
-    assert!(mount.contains("features_per_side = 32"), "{mount}");
-    let mount = mount.replace("features_per_side = 32", "features_per_side = 16");
-    std::fs::write(&changed, mount).unwrap();
-    let err = refused(&[
-        "pack",
-        seq.to_str().unwrap(),
-        "--out",
-        store.to_str().unwrap(),
-        "--mount",
-        changed.to_str().unwrap(),
-    ]);
-    assert!(err.contains("default odometer settings"), "{err}");
+    let (frame, t) = store.frame(2).unwrap();
+    let w = img.width() as usize;
+    for y in config.rows_read() {
+        let row = &img.as_raw()[usize::from(y) * w..(usize::from(y) + 1) * w];
+        assert_eq!(frame.row(y), row, "row {y}");
+    }
+    let times = std::fs::read_to_string(seq.join("times.txt")).unwrap();
+    let t2: f64 = times.lines().nth(2).unwrap().trim().parse().unwrap();
+    assert_eq!(t, Instant::from_micros((t2 * 1e6).round() as u64));
 }
 
 #[test]
@@ -185,15 +180,14 @@ fn set_runs_as_the_edited_mount_file_would_and_names_a_bad_key() {
     let seq = dir.path().join("sequences/00");
     let mount = std::fs::read_to_string(seq.join("mount.toml")).unwrap();
     assert!(
-        mount.contains("max_roll_change_steps = 3") && mount.contains("yaw_deg = 0.0"),
+        !mount.contains("[odometer]") && mount.contains("yaw_deg = 0.0"),
         "{mount}"
     );
     let edited = dir.path().join("edited.toml");
     std::fs::write(
         &edited,
-        mount
-            .replace("max_roll_change_steps = 3", "max_roll_change_steps = 0")
-            .replace("yaw_deg = 0.0", "yaw_deg = 0.5"),
+        mount.replace("yaw_deg = 0.0", "yaw_deg = 0.5")
+            + "\n[odometer]\nmax_roll_change_steps = 0\n",
     )
     .unwrap();
     let run = |name: &str, extra: &[&str]| run_poses(dir.path(), &seq, name, extra);
@@ -266,10 +260,7 @@ fn the_smoother_keeps_every_frame_leaves_the_paper_alone_and_refuses_a_long_lag(
 
     let err = run_refused_with(dir.path(), &seq, "smooth_lag_frames=5");
     assert!(
-        err.contains(
-            "smooth_lag_frames: a smoothing lag of 5 frames is longer than the \
-             capacity's 4"
-        ),
+        err.contains("smooth_lag_frames is out of range: at most 4"),
         "{err}"
     );
 }

@@ -18,11 +18,11 @@ fn calibration_removes_the_drift_of_a_yaw_error() {
     let overlay = dir.path().join("yaw-error.toml");
     std::fs::write(&overlay, "[calibration_error]\nyaw_deg = 1.0\n").unwrap();
     let sc = Scenario::load("s-course", &[overlay.to_str().unwrap().to_string()]).unwrap();
-    simulate(&sc, dir.path(), 1, Some(120), false).unwrap();
+    simulate(&sc, dir.path(), 1, Some(120), &()).unwrap();
     let seq = Sequence::open(&sequence_dir(dir.path())).unwrap();
     let told = mount_for(&seq, None).unwrap();
     let truth = sc.mount_file(false);
-    assert!((told.mount.yaw_deg - truth.mount.yaw_deg - 1.0).abs() < 1e-4);
+    assert!((told.mount_value("yaw_deg") - truth.mount_value("yaw_deg") - 1.0).abs() < 1e-4);
     let gt = read_poses(&poses_path(dir.path())).unwrap();
     let cal = calibrate(&seq, &gt, 0..120, &told, None, Metric::Short, 60, |_, _| {}).unwrap();
     assert!(
@@ -31,6 +31,6 @@ fn calibration_removes_the_drift_of_a_yaw_error() {
         cal.cost_before,
         cal.cost_after
     );
-    let yaw_error = cal.mount.mount.yaw_deg - truth.mount.yaw_deg;
+    let yaw_error = cal.mount.mount_value("yaw_deg") - truth.mount_value("yaw_deg");
     assert!(yaw_error.abs() < 0.8, "yaw still off by {yaw_error} deg");
 }

@@ -3,10 +3,11 @@
 //! of `scripts/eval-synthetic` (which render the whole courses) to keep CI fast; the bounds are
 //! the engine's acceptance bounds.
 
+use roadvo::Method;
 use roadvo_sim::calibrate::HEIGHT_SPREAD_MM;
 use roadvo_sim::eval::{Report, evaluate};
 use roadvo_sim::kitti::{Sequence, read_poses};
-use roadvo_sim::mount::{MethodName, MountFile};
+use roadvo_sim::mount::MountFile;
 use roadvo_sim::run::{RunOutput, mount_for, run_sequence};
 use roadvo_sim::scenario::Scenario;
 use roadvo_sim::simulate::{poses_path, sequence_dir, simulate};
@@ -20,20 +21,20 @@ struct Drive {
 }
 
 /// Renders a drive and runs each of `methods` over it.
-fn drives(scenario: &str, overlays: &[&str], frames: usize, methods: &[MethodName]) -> Vec<Drive> {
-    let runs: Vec<(MethodName, f32)> = methods.iter().map(|&m| (m, 0.0)).collect();
+fn drives(scenario: &str, overlays: &[&str], frames: usize, methods: &[Method]) -> Vec<Drive> {
+    let runs: Vec<(Method, f32)> = methods.iter().map(|&m| (m, 0.0)).collect();
     drives_at(scenario, overlays, frames, &runs)
 }
 
 /// A run of a rendered drive: the method, and a change to the mount file beside the frames.
-type Run = (MethodName, Box<dyn Fn(&mut MountFile)>);
+type Run = (Method, Box<dyn Fn(&mut MountFile)>);
 
 /// Renders a drive and runs it once for each (method, millimetres added to the mount's height).
 fn drives_at(
     scenario: &str,
     overlays: &[&str],
     frames: usize,
-    runs: &[(MethodName, f32)],
+    runs: &[(Method, f32)],
 ) -> Vec<Drive> {
     let tweaks: Vec<Run> = runs
         .iter()
@@ -51,7 +52,7 @@ fn drives_with(scenario: &str, overlays: &[&str], frames: usize, runs: &[Run]) -
     let dir = std::rc::Rc::new(tempfile::tempdir().unwrap());
     let overlays: Vec<String> = overlays.iter().map(|s| s.to_string()).collect();
     let sc = Scenario::load(scenario, &overlays).unwrap();
-    simulate(&sc, dir.path(), 1, Some(frames), false).unwrap();
+    simulate(&sc, dir.path(), 1, Some(frames), &()).unwrap();
     let seq_dir = sequence_dir(dir.path());
     let seq = Sequence::open(&seq_dir).unwrap();
     let truth = read_poses(&poses_path(dir.path())).unwrap();
@@ -59,7 +60,7 @@ fn drives_with(scenario: &str, overlays: &[&str], frames: usize, runs: &[Run]) -
         .map(|(method, tweak)| {
             let mut mount = mount_for(&seq, None).unwrap();
             tweak(&mut mount);
-            let run = run_sequence(&seq, &mount, Some(*method), None, None, false).unwrap();
+            let run = run_sequence(&seq, &mount, Some(*method)).unwrap();
             let report = evaluate(&truth, &run.poses).unwrap();
             Drive {
                 report,
@@ -71,7 +72,7 @@ fn drives_with(scenario: &str, overlays: &[&str], frames: usize, runs: &[Run]) -
         .collect()
 }
 
-fn drive(scenario: &str, overlays: &[&str], frames: usize, method: MethodName) -> Drive {
+fn drive(scenario: &str, overlays: &[&str], frames: usize, method: Method) -> Drive {
     drives(scenario, overlays, frames, &[method]).remove(0)
 }
 
@@ -84,7 +85,7 @@ fn true_step_m(truth: &[[f64; 12]], i: usize) -> f64 {
 #[test]
 fn s_course_straight_and_first_turn() {
     // 150 frames: the first straight and most of the left turn.
-    let d = drive("s-course", &[], 150, MethodName::Default);
+    let d = drive("s-course", &[], 150, Method::PitchVote);
     let r = &d.report;
     assert!(r.end_drift_pct <= 2.0, "{r:#?}");
     assert!(r.end_heading_err_deg <= 2.0, "{r:#?}");
@@ -93,7 +94,7 @@ fn s_course_straight_and_first_turn() {
 
 #[test]
 fn s_course_with_suspension_motion() {
-    let d = drive("s-course", &["suspension"], 150, MethodName::Default);
+    let d = drive("s-course", &["suspension"], 150, Method::PitchVote);
     assert!(d.report.end_drift_pct <= 3.0, "{:#?}", d.report);
 }
 
@@ -107,7 +108,7 @@ fn kitti_like_with_suspension_motion() {
     // decides between near-equal peaks, and a millimetre of mount height sends it down another
     // path: on this drive r_err went from 0.001 to 0.021 deg/m over -2..+2 mm), so the bounds
     // hold for the mean of five runs, the mount height moved by -2..+2 mm (the calibration's).
-    let runs = HEIGHT_SPREAD_MM.map(|mm| (MethodName::Default, mm));
+    let runs = HEIGHT_SPREAD_MM.map(|mm| (Method::PitchVote, mm));
     let reports: Vec<Report> = drives_at("kitti-like", &["suspension"], 130, &runs)
         .into_iter()
         .map(|d| d.report)
@@ -152,13 +153,13 @@ fn frames_dropped_without_the_timestamps_saying_so_are_caught_up_with() {
     // matches a clear majority of the tracks.
     let dir = tempfile::tempdir().unwrap();
     let sc = Scenario::load("kitti-like", &[]).unwrap();
-    simulate(&sc, dir.path(), 1, Some(150), false).unwrap();
+    simulate(&sc, dir.path(), 1, Some(150), &()).unwrap();
     for from in [30, 50] {
         let out = dir.path().join(format!("dropped-{from}"));
         let truth = with_frames_dropped(dir.path(), from, &out);
         let seq = Sequence::open(&sequence_dir(&out)).unwrap();
         let mount = mount_for(&seq, None).unwrap();
-        let run = run_sequence(&seq, &mount, Some(MethodName::Default), None, None, false).unwrap();
+        let run = run_sequence(&seq, &mount, Some(Method::PitchVote)).unwrap();
         let r = evaluate(&truth, &run.poses).unwrap();
         let (ratio, short) = (r.path_ratio.unwrap(), r.short_t_err_pct.unwrap());
         assert!(
@@ -178,8 +179,8 @@ fn a_slipping_vehicle_is_followed_from_its_pivot() {
         .into_iter()
         .map(|k| {
             let pivot: Box<dyn Fn(&mut MountFile)> =
-                Box::new(move |m: &mut MountFile| m.odometer.pivot_s2_per_m = k);
-            (MethodName::Default, pivot)
+                Box::new(move |m: &mut MountFile| m.settings.pivot_s2_per_m = k);
+            (Method::PitchVote, pivot)
         })
         .collect();
     let d = drives_with("kitti-like", &["slip"], 130, &runs);
@@ -209,15 +210,15 @@ fn a_pitch_held_for_the_whole_drive_is_followed_by_a_stiff_body_s_settings() {
         .into_iter()
         .map(|(off_deg, stiff)| {
             let tweak: Box<dyn Fn(&mut MountFile)> = Box::new(move |m: &mut MountFile| {
-                m.mount.pitch_deg += off_deg;
+                m.set_mount_value("pitch_deg", m.mount_value("pitch_deg") + off_deg);
                 if stiff {
-                    let kitti = MountFile::read(shipped, Some(&m.camera)).unwrap().odometer;
-                    m.odometer.max_pitch_change_steps = kitti.max_pitch_change_steps;
-                    m.odometer.pitch_settle_s = kitti.pitch_settle_s;
-                    m.odometer.max_roll_change_steps = kitti.max_roll_change_steps;
+                    let kitti = MountFile::read(shipped, Some(&m.camera)).unwrap().settings;
+                    m.settings.max_pitch_change_steps = kitti.max_pitch_change_steps;
+                    m.settings.pitch_settle_s = kitti.pitch_settle_s;
+                    m.settings.max_roll_change_steps = kitti.max_roll_change_steps;
                 }
             });
-            (MethodName::Default, tweak)
+            (Method::PitchVote, tweak)
         })
         .collect();
     let d = drives_with("kitti-like", &[], 130, &runs);
@@ -238,7 +239,7 @@ fn a_pitch_held_for_the_whole_drive_is_followed_by_a_stiff_body_s_settings() {
 #[test]
 fn traffic_ahead_neither_stops_nor_jumps_the_estimate() {
     // A car cuts in 5 m ahead from 10 s to 12 s (frames 100 to 120).
-    let d = drive("kitti-like", &["traffic"], 140, MethodName::Default);
+    let d = drive("kitti-like", &["traffic"], 140, Method::PitchVote);
     let inliers = |frames: std::ops::Range<usize>| {
         let n = frames.len() as f32;
         frames
@@ -262,7 +263,7 @@ fn traffic_ahead_neither_stops_nor_jumps_the_estimate() {
         during < 0.6 * before,
         "inlier ratio {during:.2} in traffic, {before:.2} before"
     );
-    let clean = drive("kitti-like", &[], 140, MethodName::Default);
+    let clean = drive("kitti-like", &[], 140, Method::PitchVote);
     // The car's corners are set aside as moving with us (a dozen a frame), the road's all but
     // never.
     let set_aside = |d: &Drive, frames: std::ops::Range<usize>| -> u32 {
@@ -292,7 +293,7 @@ fn default_method_is_far_ahead_of_the_papers() {
         "s-course",
         &[],
         120,
-        &[MethodName::Default, MethodName::Paper],
+        &[Method::PitchVote, Method::Paper],
     ))
     .ok()
     .unwrap();

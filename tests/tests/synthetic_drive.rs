@@ -10,7 +10,7 @@ use roadvo_sim::simulate::{poses_path, sequence_dir, simulate};
 fn s_course_renders_a_road_with_exact_ground_truth() {
     let dir = tempfile::tempdir().unwrap();
     let sc = Scenario::built_in("s-course").unwrap();
-    let summary = simulate(&sc, dir.path(), 1, Some(11), false).unwrap();
+    let summary = simulate(&sc, dir.path(), 1, Some(11), &()).unwrap();
     assert_eq!(summary.frames, 11);
     // 2.5 m/s for one second.
     assert!((summary.distance_m - 2.5).abs() < 1e-6, "{summary:?}");
@@ -56,7 +56,7 @@ fn same_seed_same_frames_other_seed_other_texture() {
     let sc = Scenario::built_in("s-course").unwrap();
     let render = |seed| {
         let dir = tempfile::tempdir().unwrap();
-        simulate(&sc, dir.path(), seed, Some(2), false).unwrap();
+        simulate(&sc, dir.path(), seed, Some(2), &()).unwrap();
         let seq = Sequence::open(&sequence_dir(dir.path())).unwrap();
         seq.load(1).unwrap().into_raw()
     };
@@ -69,6 +69,6 @@ fn same_seed_same_frames_other_seed_other_texture() {
 fn too_many_frames_for_the_path_is_an_error() {
     let dir = tempfile::tempdir().unwrap();
     let sc = Scenario::built_in("s-course").unwrap();
-    let e = simulate(&sc, dir.path(), 1, Some(10_000), false).unwrap_err();
+    let e = simulate(&sc, dir.path(), 1, Some(10_000), &()).unwrap_err();
     assert!(e.to_string().contains("ends before frame 481"), "{e}");
 }

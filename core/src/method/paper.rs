@@ -22,11 +22,12 @@
 //!   observation region whose centroid lies nearest its prediction under the estimate.
 //! - *Grid*: the odometer's `GRID` (64): finer than the paper's noise, so the bins do not limit it.
 
+use super::{Frame, Outcome};
 use crate::config::ValidConfig;
 use crate::harris::Corners;
 use crate::motion::Motion;
-use crate::projection::{GroundPoint, Pixel, Quad};
-use crate::tracks::{Observation, Track};
+use crate::projection::{Attitude, GroundPoint, Quad};
+use crate::tracks::{Observation, Observations, Track};
 use crate::vote::{MotionWindow, VoteGrid};
 use heapless::Vec;
 
@@ -40,45 +41,18 @@ const MAX_WIDEN: u8 = 4;
 /// Share of the peak that counts in the centre of gravity (paper §2.3: 70%).
 const PEAK_FRACTION: f32 = 0.7;
 
-/// Working memory of the paper's method; holds nothing between frames.
+/// Working memory of the paper's method; it holds nothing between frames.
 #[derive(Clone, Debug)]
-pub struct PaperScratch<const F: usize, const GRID: usize> {
+pub struct Paper<const N: usize, const F: usize, const GRID: usize> {
     grid: VoteGrid<GRID>,
-    /// Observation regions and their corners' pixels, left and right of straight ahead.
-    quads: [Vec<(Quad, Pixel), F>; 2],
-    /// Which observation regions some track overlapped.
-    used: [[bool; F]; 2],
+    /// Observation regions, left and right of straight ahead.
+    quads: [Vec<Quad, F>; 2],
+    /// Their centroids and corners' pixels, and which regions some track overlapped.
+    obs: Observations<F>,
     /// Bins one track votes for: one bit per distance bin, a word per heading bin.
     bits: [[u64; 4]; GRID],
-}
-
-impl<const F: usize, const GRID: usize> PaperScratch<F, GRID> {
-    /// Empty working memory; `const` so that an odometer can be a zero-initialised `static`.
-    pub const fn new() -> Self {
-        Self {
-            grid: VoteGrid::new(),
-            quads: [Vec::new(), Vec::new()],
-            used: [[false; F]; 2],
-            bits: [[0; 4]; GRID],
-        }
-    }
-}
-
-impl<const F: usize, const GRID: usize> Default for PaperScratch<F, GRID> {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-/// What the paper's method found.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct PaperOutcome {
-    /// The estimated motion, None when nothing voted.
-    pub motion: Option<Motion>,
-    /// Tracks whose prediction overlapped an observation.
-    pub matched: usize,
-    /// Votes in the highest bin.
-    pub peak: u32,
+    /// Track i's observation in this frame, if matched.
+    observed: [Option<Observation>; N],
 }
 
 /// The four corner motions of a patch moved `p` to; in this order they go round the region.
@@ -100,31 +74,58 @@ fn prediction_quad(p: GroundPoint, w: &MotionWindow) -> Quad {
     }
 }
 
-impl<const F: usize, const GRID: usize> PaperScratch<F, GRID> {
-    /// Estimates the motion and fills `observed` (one slot per track) with matched tracks'
-    /// new positions.
-    pub fn estimate(
-        &mut self,
-        cfg: &ValidConfig,
-        tracks: &[Track],
-        corners: &Corners<F>,
-        prediction: Option<Motion>,
-        interval_s: f32,
-        observed: &mut [Option<Observation>],
-    ) -> PaperOutcome {
+impl<const N: usize, const F: usize, const GRID: usize> Paper<N, F, GRID> {
+    /// Empty working memory: every bit zero, for a zero-initialised `static`.
+    pub const ZERO: Self = Self {
+        grid: VoteGrid::new(),
+        quads: [Vec::new(), Vec::new()],
+        obs: Observations::new(),
+        bits: [[0; 4]; GRID],
+        observed: [None; N],
+    };
+
+    /// The first frame's observations, every corner seen with the body level: they start the
+    /// tracks.
+    pub fn first_observations<'a>(
+        cfg: &'a ValidConfig,
+        corners: &'a Corners<F>,
+    ) -> impl Iterator<Item = Observation> + 'a {
+        let h = &cfg.projection().nominal;
+        corners.iter().filter_map(move |c| {
+            let pixel = c.pixel();
+            h.backproject(pixel)
+                .map(|ground| Observation { ground, pixel })
+        })
+    }
+
+    /// Estimates the motion and matches the tracks (steps 1 to 5).
+    pub fn vote(&mut self, cfg: &ValidConfig, frame: &Frame<F>) -> Outcome<'_, F> {
+        let Frame {
+            tracks,
+            corners,
+            prior,
+            interval,
+            ..
+        } = *frame;
         let proj = cfg.projection();
-        for (side, heap) in self.quads.iter_mut().zip([&corners.left, &corners.right]) {
-            side.clear();
+        let sides = self.quads.iter_mut().zip(self.obs.sides.iter_mut());
+        for ((quads, obs), heap) in sides.zip([&corners.left, &corners.right]) {
+            quads.clear();
+            obs.clear();
             for c in heap.iter() {
                 let pixel = c.pixel();
                 if let Some(q) = proj.observe(pixel) {
-                    let _ = side.push((q, pixel));
+                    let _ = quads.push(q);
+                    let _ = obs.push(Observation {
+                        ground: q.centroid(),
+                        pixel,
+                    });
                 }
             }
         }
-        let c = cfg.config();
-        let needed = c.min_inlier_ratio * corners.len() as f32;
-        let mut window = match prediction {
+        let s = cfg.settings();
+        let needed = s.min_inlier_ratio * corners.len() as f32;
+        let mut window = match prior.prediction {
             None => MotionWindow {
                 heading_lo_rad: -STARTUP_HEADING_HALF_RAD,
                 heading_hi_rad: STARTUP_HEADING_HALF_RAD,
@@ -133,11 +134,12 @@ impl<const F: usize, const GRID: usize> PaperScratch<F, GRID> {
             },
             // The change limits over this frame's interval.
             Some(m) => {
+                let interval_s = interval.secs_f32();
                 let dt2 = interval_s * interval_s;
                 MotionWindow::around(
                     m,
-                    c.dynamics.max_heading_accel_rad_s2 * dt2,
-                    c.dynamics.max_longitudinal_accel_m_s2 * dt2,
+                    s.max_heading_accel_rad_s2 * dt2,
+                    s.max_longitudinal_accel_m_s2 * dt2,
                 )
             }
         };
@@ -159,36 +161,39 @@ impl<const F: usize, const GRID: usize> PaperScratch<F, GRID> {
         for t in tracks {
             self.vote_track(t.ground, &window);
         }
+        self.obs.untake_all();
         let Some(peak) = self.grid.centre_above(PEAK_FRACTION) else {
-            observed.fill(None);
-            self.used = [[false; F]; 2];
-            return PaperOutcome::default();
+            return Outcome::nothing(&self.obs);
         };
         let motion = window.motion_at(peak.heading_bin, peak.distance_bin, GRID);
-        self.used = [[false; F]; 2];
-        for (t, slot) in tracks.iter().zip(observed.iter_mut()) {
+        let n = tracks.len().min(N);
+        for (t, slot) in tracks.iter().zip(self.observed.iter_mut().take(n)) {
             let region = prediction_quad(t.ground, &window);
             let predicted = motion.move_point(t.ground);
             let mut best: Option<(f32, Observation)> = None;
-            for (quads, used) in self.quads.iter().zip(&mut self.used) {
-                for ((q, pixel), used) in quads.iter().zip(used.iter_mut()) {
+            let sides = self.quads.iter().zip(&self.obs.sides);
+            for ((quads, obs), taken) in sides.zip(&mut self.obs.taken) {
+                for ((q, o), taken) in quads.iter().zip(obs).zip(taken.iter_mut()) {
                     if q.overlaps(&region) {
-                        *used = true;
-                        let c = q.centroid();
+                        *taken = true;
+                        let c = o.ground;
                         let d = libm::hypotf(c.x_m - predicted.x_m, c.y_m - predicted.y_m);
                         if best.is_none_or(|b| d < b.0) {
-                            let pixel = *pixel;
-                            best = Some((d, Observation { ground: c, pixel }));
+                            best = Some((d, *o));
                         }
                     }
                 }
             }
             *slot = best.map(|b| b.1);
         }
-        PaperOutcome {
+        Outcome {
             motion: Some(motion),
             matched,
             peak: peak.score,
+            attitude: Attitude::default(),
+            prior_matches: None,
+            observed: self.observed.get(..n).unwrap_or_default(),
+            observations: &self.obs,
         }
     }
 
@@ -198,10 +203,7 @@ impl<const F: usize, const GRID: usize> PaperScratch<F, GRID> {
             .iter()
             .filter(|t| {
                 let region = prediction_quad(t.ground, w);
-                self.quads
-                    .iter()
-                    .flatten()
-                    .any(|(q, _)| q.overlaps(&region))
+                self.quads.iter().flatten().any(|q| q.overlaps(&region))
             })
             .count()
     }
@@ -226,7 +228,7 @@ impl<const F: usize, const GRID: usize> PaperScratch<F, GRID> {
         };
         self.bits = [[0; 4]; GRID];
         let mut any = false;
-        for (q, _) in self.quads.iter().flatten() {
+        for q in self.quads.iter().flatten() {
             if !q.overlaps(&region) {
                 continue;
             }
@@ -247,19 +249,6 @@ impl<const F: usize, const GRID: usize> PaperScratch<F, GRID> {
                 }
             }
         }
-    }
-
-    /// Observation regions no track overlapped, as centroids: they start tracks.
-    pub fn unmatched(&self) -> impl Iterator<Item = Observation> + '_ {
-        self.quads.iter().zip(&self.used).flat_map(|(qs, used)| {
-            qs.iter()
-                .zip(used)
-                .filter(|(_, u)| !**u)
-                .map(|((q, pixel), _)| Observation {
-                    ground: q.centroid(),
-                    pixel: *pixel,
-                })
-        })
     }
 }
 

@@ -1,0 +1,108 @@
+//! `roadvo demo`.
+
+use super::bar;
+use super::simulate::render;
+use anyhow::Result;
+use roadvo::Method;
+use roadvo_sim::eval::{Report, evaluate};
+use roadvo_sim::kitti::{Sequence, read_poses};
+use roadvo_sim::plot::{Track, plot_trajectories};
+use roadvo_sim::run::{RunFiles, config_for, mount_for, run};
+use roadvo_sim::scenario::Scenario;
+use roadvo_sim::simulate::{poses_path, sequence_dir};
+use std::path::PathBuf;
+
+/// Render the paper's s-course, run both methods, evaluate, and plot: the default demo.
+#[derive(clap::Args)]
+pub struct DemoArgs {
+    /// Folder to render into (default: a temporary folder, removed afterwards).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Seed of the texture, noise and suspension phases.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+}
+
+impl DemoArgs {
+    pub fn run(self) -> Result<()> {
+        // Dropped (and removed) when the demo ends, unless --out names a folder to keep.
+        let tmp = tempfile::Builder::new().prefix("roadvo-demo-").tempdir()?;
+        let out = self.out.unwrap_or_else(|| tmp.path().to_owned());
+        let sc = Scenario::built_in("s-course")?;
+        render(&sc, &out, self.seed, None)?;
+        let seq = Sequence::open(&sequence_dir(&out))?;
+        let mount = mount_for(&seq, None)?;
+        let gt = read_poses(&poses_path(&out))?;
+        let mut reports = Vec::new();
+        let mut runs = Vec::new();
+        for method in Method::ALL {
+            let progress = bar(seq.frames, method.name(), "frames");
+            let config = config_for(&seq, &mount, Some(method))?;
+            let output = run(&seq, config, &RunFiles::default(), || progress.inc(1))?;
+            progress.finish_and_clear();
+            println!(
+                "{:>10}: {} frames, {} fallbacks, odometry {:.0} frames/s",
+                method.name(),
+                output.estimates.len(),
+                output.fallbacks(),
+                output.frames_per_s()
+            );
+            reports.push((method.name(), evaluate(&gt, &output.poses)?));
+            runs.push((method.name(), output));
+        }
+        println!("\n{}", side_by_side(&reports));
+        let plot = PathBuf::from("roadvo-demo.png");
+        let mut tracks = vec![Track {
+            label: "ground truth",
+            poses: &gt,
+        }];
+        for (name, output) in &runs {
+            tracks.push(Track {
+                label: name,
+                poses: &output.poses,
+            });
+        }
+        plot_trajectories(
+            &plot,
+            "roadvo demo: the paper's s-course",
+            &tracks,
+            Some(&reports[0].1),
+        )?;
+        println!("plot written to {}", plot.display());
+        Ok(())
+    }
+}
+
+/// The main figures of several reports in columns.
+fn side_by_side(reports: &[(&str, Report)]) -> String {
+    /// A figure of a report, formatted.
+    type Figure = fn(&Report) -> String;
+    fn opt(v: Option<f64>, d: usize) -> String {
+        v.map_or("-".to_string(), |x| format!("{x:.d$}"))
+    }
+    let mut s = format!("{:<32}", "method");
+    for (name, _) in reports {
+        s += &format!("{name:>12}");
+    }
+    s.push('\n');
+    let rows: [(&str, Figure); 6] = [
+        ("KITTI t_err (%)", |r| opt(r.t_err_pct, 2)),
+        ("KITTI r_err (deg/m)", |r| opt(r.r_err_deg_per_m, 4)),
+        ("short t_err, 10..50 m (%)", |r| opt(r.short_t_err_pct, 2)),
+        ("short r_err, 10..50 m (deg/m)", |r| {
+            opt(r.short_r_err_deg_per_m, 4)
+        }),
+        ("end-point drift (%)", |r| format!("{:.2}", r.end_drift_pct)),
+        ("final heading error (deg)", |r| {
+            format!("{:.2}", r.end_heading_err_deg)
+        }),
+    ];
+    for (label, f) in rows {
+        s += &format!("{label:<32}");
+        for (_, r) in reports {
+            s += &format!("{:>12}", f(r));
+        }
+        s.push('\n');
+    }
+    s
+}

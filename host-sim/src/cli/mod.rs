@@ -1,0 +1,133 @@
+//! The subcommands, one module each, and what they share: the sequence and mount arguments, the
+//! progress bars.
+
+mod bench;
+mod calibrate;
+mod demo;
+mod eval;
+mod pack;
+mod run;
+mod sensitivity;
+mod simulate;
+
+use anyhow::Result;
+use clap::{Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use roadvo::Method;
+use roadvo_sim::kitti::Sequence;
+use roadvo_sim::mount::MountFile;
+use roadvo_sim::run::mount_for;
+use std::path::PathBuf;
+
+/// The command line.
+#[derive(Parser)]
+#[command(
+    name = "roadvo",
+    version,
+    about = "Monocular visual odometry for road vehicles"
+)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Subcommand)]
+pub enum Command {
+    /// Render a synthetic drive with exact ground truth, in KITTI layout.
+    Simulate(simulate::SimulateArgs),
+    /// Compare an estimated trajectory with ground truth (KITTI pose files).
+    Eval(eval::EvalArgs),
+    /// Run the odometer over a KITTI-layout sequence and write its trajectory.
+    Run(run::RunArgs),
+    /// Refine the mount (pitch, yaw, roll, height, offset ahead of the rear axle) so that the
+    /// odometry over a section with ground truth matches it.
+    Calibrate(calibrate::CalibrateArgs),
+    /// Pack a sequence into the firmware example's frame store (the configuration and the rows
+    /// the odometer reads).
+    Pack(pack::PackArgs),
+    /// Time the odometry alone on a sequence: frames preloaded, one thread, both methods.
+    Bench(bench::BenchArgs),
+    /// The paper's sensitivity study on the s-course: +1 deg of roll, pitch, yaw and +10 cm of
+    /// each offset in the mount file, a kerb and crowned roads; both methods beside the paper.
+    Sensitivity(sensitivity::SensitivityArgs),
+    /// Render the paper's s-course, run both methods, evaluate, and plot: the default demo.
+    Demo(demo::DemoArgs),
+}
+
+impl Command {
+    /// Runs the subcommand.
+    pub fn run(self) -> Result<()> {
+        match self {
+            Self::Simulate(a) => a.run(),
+            Self::Eval(a) => a.run(),
+            Self::Run(a) => a.run(),
+            Self::Calibrate(a) => a.run(),
+            Self::Pack(a) => a.run(),
+            Self::Bench(a) => a.run(),
+            Self::Sensitivity(a) => a.run(),
+            Self::Demo(a) => a.run(),
+        }
+    }
+}
+
+/// A KITTI-layout sequence and the mount to run it with.
+#[derive(clap::Args)]
+pub struct SequenceArgs {
+    /// The sequence folder (holding image_0/, times.txt, calib.txt).
+    pub seq_dir: PathBuf,
+    /// Mount file (default: SEQ_DIR/mount.toml); without [camera] it takes the sequence's.
+    #[arg(long)]
+    pub mount: Option<PathBuf>,
+    /// Override the mount file's method: pitch-vote or paper.
+    #[arg(long, value_parser = parse_method)]
+    pub method: Option<Method>,
+    /// Change one value of the mount file, as its line would: KEY=VALUE in [odometer], or
+    /// SECTION.KEY=VALUE (e.g. `--set max_roll_change_steps=0 --set mount.yaw_deg=-0.25`).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub settings: Vec<String>,
+}
+
+impl SequenceArgs {
+    /// Opens the sequence and reads its mount file, with the `--set` changes.
+    pub fn open(&self) -> Result<(Sequence, MountFile)> {
+        let seq = Sequence::open(&self.seq_dir)?;
+        let mut mount = mount_for(&seq, self.mount.as_deref())?;
+        for s in &self.settings {
+            mount.set(s)?;
+        }
+        Ok((seq, mount))
+    }
+}
+
+/// A method by its name in a mount file.
+pub fn parse_method(name: &str) -> Result<Method, String> {
+    Method::from_name(name).ok_or_else(|| {
+        let names: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
+        format!("{name:?} is not a method: {}", names.join(" or "))
+    })
+}
+
+/// A progress bar of `len` steps, labelled `what` (`{pos}/{len}` of `unit`).
+pub fn bar(len: usize, what: &str, unit: &str) -> ProgressBar {
+    ProgressBar::new(len as u64).with_style(
+        ProgressStyle::with_template(&format!(
+            "{what} {{bar:40}} {{pos}}/{{len}} {unit}, eta {{eta}}"
+        ))
+        .expect("valid template"),
+    )
+}
+
+/// A progress bar that hears of the library's long work.
+pub struct Bar(pub ProgressBar);
+
+impl roadvo_sim::Progress for Bar {
+    fn start(&self, total: usize) {
+        self.0.set_length(total as u64);
+    }
+
+    fn step(&self) {
+        self.0.inc(1);
+    }
+}

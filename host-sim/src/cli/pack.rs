@@ -1,0 +1,45 @@
+//! `roadvo pack`.
+
+use super::{SequenceArgs, bar};
+use anyhow::Result;
+use roadvo_sim::frame_store::pack;
+use std::path::PathBuf;
+
+/// Pack a sequence into the firmware example's frame store.
+#[derive(clap::Args)]
+pub struct PackArgs {
+    #[command(flatten)]
+    seq: SequenceArgs,
+    /// Where to write the store.
+    #[arg(long)]
+    out: PathBuf,
+    /// Frames from the start of the sequence (default: all).
+    #[arg(long)]
+    frames: Option<usize>,
+}
+
+impl PackArgs {
+    pub fn run(self) -> Result<()> {
+        let (seq, mount) = self.seq.open()?;
+        let n = self.frames.unwrap_or(seq.frames).min(seq.frames);
+        let progress = bar(n, "packing", "frames");
+        let packed = pack(
+            &seq,
+            &mount,
+            self.seq.method,
+            self.frames,
+            &self.out,
+            || progress.inc(1),
+        )?;
+        progress.finish_and_clear();
+        println!(
+            "{} frames, rows {}..{} of each, {} bytes written to {}",
+            packed.frames,
+            packed.rows.start,
+            packed.rows.end,
+            packed.bytes,
+            self.out.display()
+        );
+        Ok(())
+    }
+}
