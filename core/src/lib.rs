@@ -48,6 +48,8 @@
 //!   pixel into a point on the road, or into the quadrilateral where it may lie given the body's
 //!   attitude on its suspension (paper §2.1).
 //! - [`harris`]: integer Harris corners inside the ground window, the strongest per side.
+//! - [`heading`]: the heading change from corners over the whole image: FAST corners, patches
+//!   matched between frames, a consensus over the planar motion's epipolar constraint.
 //! - [`motion`]: the Ackermann arc between frames, planar poses, and the lift of a planar pose to
 //!   a KITTI camera pose (paper §2.2).
 //! - [`vote`]: the motion window and the integer accumulator over it (paper §2.3).
@@ -68,6 +70,7 @@ extern crate std;
 pub mod config;
 pub mod frame;
 pub mod harris;
+pub mod heading;
 pub mod method;
 pub mod motion;
 pub mod odometer;

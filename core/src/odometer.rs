@@ -83,6 +83,15 @@ pub struct Quality {
     /// have moved (pitch vote; see [`crate::method::pitch_vote::comoving`]). Counted in
     /// `features_detected`.
     pub features_comoving: u16,
+    /// Corners found over the whole image (pitch vote with `image_heading`; see
+    /// [`crate::heading`]).
+    pub image_corners: u16,
+    /// Of them, paired with the last frame's.
+    pub image_matches: u16,
+    /// Pairs the image's motion holds (0 where it had none).
+    pub image_inliers: u16,
+    /// The heading change is the whole image's (enough pairs agreed), not the ground window's.
+    pub image_heading: bool,
 }
 
 /// The result of one frame.
@@ -150,17 +159,22 @@ pub struct Odometer<
     const MAX_TRACKS: usize = 128,
     const MAX_FEATURES: usize = 32,
     const GRID: usize = 64,
+    const IMAGE_FEATURES: usize = 128,
 > {
     config: ValidConfig,
     state: State,
     tracks: Tracks<MAX_TRACKS>,
     corners: Corners<MAX_FEATURES>,
     harris: HarrisScratch,
-    estimator: Estimator<MAX_TRACKS, MAX_FEATURES, GRID>,
+    estimator: Estimator<MAX_TRACKS, MAX_FEATURES, GRID, IMAGE_FEATURES>,
 }
 
-impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
-    Odometer<MAX_TRACKS, MAX_FEATURES, GRID>
+impl<
+    const MAX_TRACKS: usize,
+    const MAX_FEATURES: usize,
+    const GRID: usize,
+    const IMAGE_FEATURES: usize,
+> Odometer<MAX_TRACKS, MAX_FEATURES, GRID, IMAGE_FEATURES>
 {
     /// Capacities that cannot work, refused when the type is used: a vote needs a 3x3 peak, and
     /// the accumulator's cell index is 16 bits; a track pool must hold a frame's corners.
@@ -168,6 +182,7 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
         assert!(GRID >= 3 && GRID <= 255, "GRID must be 3 to 255");
         assert!(MAX_FEATURES >= 1, "MAX_FEATURES must be at least 1");
         assert!(MAX_TRACKS >= 1, "MAX_TRACKS must be at least 1");
+        assert!(IMAGE_FEATURES <= 256, "IMAGE_FEATURES must be at most 256");
     };
 
     /// An odometer with no configuration, refusing every frame with
@@ -196,11 +211,21 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
     }
 
     /// Takes `config` and forgets every frame. Fails, leaving the odometer as it was, if the
-    /// configuration asks for more corners per side than `MAX_FEATURES`.
+    /// configuration asks for more corners per side than `MAX_FEATURES`, or more over the
+    /// whole image than `IMAGE_FEATURES`.
     pub fn configure(&mut self, config: ValidConfig) -> Result<(), ConfigError> {
-        if usize::from(config.settings().features_per_side) > MAX_FEATURES {
+        let s = config.settings();
+        if usize::from(s.features_per_side) > MAX_FEATURES {
             return Err(ConfigError::ExceedsCapacity {
                 field: "features_per_side",
+            });
+        }
+        let image = usize::from(s.image_grid_columns)
+            * usize::from(s.image_grid_rows)
+            * usize::from(s.image_corners_per_cell);
+        if s.image_heading && image > IMAGE_FEATURES {
+            return Err(ConfigError::ExceedsCapacity {
+                field: "image_corners_per_cell",
             });
         }
         self.config = config;
@@ -248,8 +273,23 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
         quality.features_comoving =
             self.estimator
                 .set_aside(&self.config, &self.corners, prediction);
+        // 5. Heading from the whole image (pitch vote with `image_heading`).
+        let ratio = interval.map(|dt| match self.state.last_interval {
+            Duration::ZERO => 1.0,
+            last => dt.ratio(last),
+        });
+        let image =
+            self.estimator
+                .image_heading(frame, &self.config, ratio.map(|r| (prediction, r)));
+        let image_heading_rad = image.and_then(|i| i.heading_change_rad);
+        if let Some(i) = image {
+            quality.image_corners = i.corners;
+            quality.image_matches = i.matches;
+            quality.image_inliers = i.inliers;
+            quality.image_heading = image_heading_rad.is_some();
+        }
         let Some(interval) = interval else {
-            // 5. Start-up: the first frame's corners become tracks.
+            // 6. Start-up: the first frame's corners become tracks.
             quality.startup = true;
             quality.tracks_refused =
                 self.estimator
@@ -261,12 +301,12 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
                 quality,
             });
         };
-        // 6. Pivot: the tracks and the pose measured from where this frame's arc is drawn.
+        // 7. Pivot: the tracks and the pose measured from where this frame's arc is drawn.
         let pivot_m =
             self.estimator
                 .pivot_m(&self.config, prediction, interval, self.state.pivot_m);
         self.move_pivot(pivot_m);
-        // 7. Vote in the window of plausible motions and match (the method's).
+        // 8. Vote in the window of plausible motions and match (the method's).
         let inputs = method::Frame {
             tracks: self.tracks.as_slice(),
             corners: &self.corners,
@@ -274,6 +314,7 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
                 prediction,
                 steady_speed_m_s: self.state.steady_speed_m_s,
                 fallbacks: self.state.fallbacks,
+                image_heading_rad,
             },
             interval,
             pivot_m,
@@ -288,17 +329,24 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
         } else {
             voted.matched as f32 / detected as f32
         };
-        // 8. Weigh a trusted vote against the prediction; fall back to steady state where too
-        // few features agree (paper §5).
+        // 9. Weigh a trusted vote against the prediction; fall back to steady state where too
+        // few features agree (paper §5). The whole image's heading, where it has one, stands.
         let trusted = voted.motion.is_some()
             && quality.inlier_ratio >= self.config.settings().min_inlier_ratio;
-        let motion = match (voted.motion, prediction) {
+        let ground = match (voted.motion, prediction) {
             (Some(m), Some(p)) if trusted => voted.weigh(m, p),
             (Some(m), None) if trusted => m,
             _ => prediction.unwrap_or(Motion::ZERO),
         };
-        quality.fallback = !trusted;
-        // 9. Update the tracks (paper §2.3): matched ones take their observation, the others are
+        let motion = match image_heading_rad {
+            Some(h) => Motion {
+                heading_change_rad: h,
+                ..ground
+            },
+            None => ground,
+        };
+        quality.fallback = !trusted && image_heading_rad.is_none();
+        // 10. Update the tracks (paper §2.3): matched ones take their observation, the others are
         // carried by the motion; an untrusted vote's matches are not evidence. The observations
         // no track took start tracks.
         let observed = if trusted { voted.observed } else { &[] };
@@ -307,7 +355,7 @@ impl<const MAX_TRACKS: usize, const MAX_FEATURES: usize, const GRID: usize>
             cfg.in_window(g.moved_ahead(pivot_m))
         });
         quality.tracks_refused = self.tracks.spawn_all(voted.observations.untaken());
-        // 10. Integrate.
+        // 11. Integrate.
         self.state.pose = self.state.pose.advance(motion);
         self.state.motion = Some(motion);
         self.state.steady_speed_m_s = Some(self.steady_speed(motion, interval));

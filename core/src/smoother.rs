@@ -306,10 +306,12 @@ mod tests {
     }
 
     #[test]
-    fn a_two_frame_lag_costs_under_half_a_kilobyte() {
+    fn a_two_frame_lag_costs_under_six_hundred_bytes() {
         let size = size_of::<Smoother<5>>();
         std::println!("size_of::<Smoother<5>>() = {size} bytes");
-        assert!(size <= 512, "{size} bytes");
+        // 5 estimates of 104 bytes (the quality holds the whole image's support too) and the
+        // bookkeeping.
+        assert!(size <= 600, "{size} bytes");
     }
 
     #[test]

@@ -46,6 +46,15 @@ impl MotionWindow {
         w
     }
 
+    /// The same window, its heading range `heading_rad +- half_rad`.
+    pub fn with_heading(self, heading_rad: f32, half_rad: f32) -> Self {
+        Self {
+            heading_lo_rad: heading_rad - half_rad,
+            heading_hi_rad: heading_rad + half_rad,
+            ..self
+        }
+    }
+
     /// The same window, its distance range stretched to take in `distance_m +- half_m`.
     pub fn taking_in(self, distance_m: f32, half_m: f32) -> Self {
         Self {

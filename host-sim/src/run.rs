@@ -267,6 +267,10 @@ struct QualityLine {
     roll_rad: f32,
     tracks_refused: u16,
     features_comoving: u16,
+    image_corners: u16,
+    image_matches: u16,
+    image_inliers: u16,
+    image_heading: bool,
 }
 
 impl QualityLine {
@@ -291,6 +295,10 @@ impl QualityLine {
             roll_rad: q.roll_rad,
             tracks_refused: q.tracks_refused,
             features_comoving: q.features_comoving,
+            image_corners: q.image_corners,
+            image_matches: q.image_matches,
+            image_inliers: q.image_inliers,
+            image_heading: q.image_heading,
         }
     }
 }

@@ -173,5 +173,42 @@ settings! {
         /// odometer's own estimates; see [`crate::Smoother`]), pitch vote only: the paper's
         /// method stays as written. The odometer's estimates are never smoothed.
         smooth_lag_frames: u8 = val(0), max 4 => "smooth_lag_frames";
+        /// Pitch vote: the heading change from corners over the whole image (true), the ground
+        /// window's vote giving the distance at that heading; false: the ground window's vote
+        /// gives both (the method before the whole image was used).
+        image_heading: bool = val(true) => "image_heading";
+        /// Whole-image heading: the FAST threshold of a corner, grey levels (20).
+        image_corner_threshold: u8 = val(20), min 1 => "image_corner_threshold";
+        /// Whole-image heading: cells across the frame's grid, each keeping its strongest
+        /// corners (16).
+        image_grid_columns: u8 = val(16), min 1 => "image_grid_columns";
+        /// Whole-image heading: cells down the frame's grid (4).
+        image_grid_rows: u8 = val(4), min 1 => "image_grid_rows";
+        /// Whole-image heading: corners kept a cell (2): with the grid, at most the odometer's
+        /// `IMAGE_FEATURES` a frame.
+        image_corners_per_cell: u8 = val(2), min 1, max 4 => "image_corners_per_cell";
+        /// Whole-image heading: largest root mean square difference of a feature's patch (its
+        /// 5x5 interior) and the place it is found again, each less its mean, grey levels (20).
+        image_max_unlikeness_dn: f32 = val(20.0), above 0.0, max 255.0
+            => "image_max_unlikeness_dn";
+        /// Whole-image heading: the finest vote's kernel, pixels: a pair's vote falls to nothing
+        /// at this distance from the motion (0.7).
+        image_kernel_px: f32 = val(0.7), above 0.0, max 20.0 => "image_kernel_px";
+        /// Whole-image heading: largest distance of a pair from the motion that the refinement
+        /// takes in, pixels (1).
+        image_inlier_px: f32 = val(1.0), above 0.0, max 20.0 => "image_inlier_px";
+        /// Whole-image heading: fewest pairs the motion must hold for its heading to be taken
+        /// (20).
+        image_min_inliers: u16 = val(20), min 6, max 1000 => "image_min_inliers";
+        /// Whole-image heading: the largest standard deviation of the image's heading change
+        /// (how well its pairs determine it, the rest of the motion free) for it to be taken
+        /// (0.05 deg): pairs that lie on one plane (a frame of nothing but road) cannot tell a
+        /// turn from a sideways step, and the ground window's vote is the better there.
+        image_max_heading_sd_rad: f32 = deg(0.05), above 0.0, max 10.0
+            => "image_max_heading_sd_deg";
+        /// Whole-image heading: half width of the ground vote's heading window around the
+        /// image's heading, per frame (0.1 deg).
+        image_heading_window_rad: f32 = deg(0.1), above 0.0, max 10.0
+            => "image_heading_window_deg";
     }
 }

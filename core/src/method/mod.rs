@@ -8,6 +8,7 @@ pub mod pitch_vote;
 
 use crate::config::{Method, ValidConfig};
 use crate::harris::Corners;
+use crate::heading::ImageMotion;
 use crate::motion::Motion;
 use crate::projection::Attitude;
 use crate::time::Duration;
@@ -24,6 +25,8 @@ pub struct Prior {
     pub steady_speed_m_s: Option<f32>,
     /// Frames in a row that fell back to the previous motion.
     pub fallbacks: u8,
+    /// The heading change the whole image gives, radians, where it gives one.
+    pub image_heading_rad: Option<f32>,
 }
 
 /// What a frame's vote works with.
@@ -94,14 +97,14 @@ impl<'a, const F: usize> Outcome<'a, F> {
 #[repr(u8)]
 // The variants' sizes differ; boxing would need an allocator, and the larger one is in use.
 #[allow(clippy::large_enum_variant)]
-pub enum Estimator<const N: usize, const F: usize, const GRID: usize> {
+pub enum Estimator<const N: usize, const F: usize, const GRID: usize, const K: usize> {
     /// The pitch vote.
-    PitchVote(PitchVote<N, F, GRID>),
+    PitchVote(PitchVote<N, F, GRID, K>),
     /// The paper's method.
     Paper(Paper<N, F, GRID>),
 }
 
-impl<const N: usize, const F: usize, const GRID: usize> Estimator<N, F, GRID> {
+impl<const N: usize, const F: usize, const GRID: usize, const K: usize> Estimator<N, F, GRID, K> {
     /// No configuration: every bit zero.
     pub const ZERO: Self = Self::PitchVote(PitchVote::ZERO);
 
@@ -145,6 +148,21 @@ impl<const N: usize, const F: usize, const GRID: usize> Estimator<N, F, GRID> {
         }
     }
 
+    /// The heading change from the whole image (pitch vote with `image_heading`; `None`
+    /// otherwise). `prior`: the predicted motion and this frame's interval over the last
+    /// one's, `None` on a drive's first frame.
+    pub fn image_heading<Fr: crate::Frame + ?Sized>(
+        &mut self,
+        frame: &Fr,
+        cfg: &ValidConfig,
+        prior: Option<(Option<Motion>, f32)>,
+    ) -> Option<ImageMotion> {
+        match self {
+            Self::PitchVote(pv) => pv.image_heading(frame, cfg, prior),
+            Self::Paper(_) => None,
+        }
+    }
+
     /// Starts a track at each of the first frame's corners; returns those a full pool refused.
     pub fn start_tracks<const M: usize>(
         &self,
@@ -171,7 +189,7 @@ impl<const N: usize, const F: usize, const GRID: usize> Estimator<N, F, GRID> {
     ) -> f32 {
         match self {
             Self::PitchVote(_) => {
-                PitchVote::<N, F, GRID>::pivot_m(cfg, prediction, interval, current_m)
+                PitchVote::<N, F, GRID, K>::pivot_m(cfg, prediction, interval, current_m)
             }
             Self::Paper(_) => current_m,
         }

@@ -41,6 +41,7 @@ mod tests;
 use super::{Frame, Outcome, Prior};
 use crate::config::ValidConfig;
 use crate::harris::Corners;
+use crate::heading::{ImageHeading, ImageMotion};
 use crate::motion::Motion;
 use crate::projection::{Attitude, Homography, Pixel, RollMap};
 use crate::time::Duration;
@@ -81,7 +82,7 @@ const MATCH_ALONG_BINS: f32 = 2.0;
 
 /// The pitch vote's state across frames and its working memory.
 #[derive(Clone, Debug)]
-pub struct PitchVote<const N: usize, const F: usize, const GRID: usize> {
+pub struct PitchVote<const N: usize, const F: usize, const GRID: usize, const K: usize> {
     fans: Fans,
     /// The attitude hypothesis the last frame settled on.
     attitude: AttitudeIndex,
@@ -95,9 +96,11 @@ pub struct PitchVote<const N: usize, const F: usize, const GRID: usize> {
     search: Search<N, F, GRID>,
     /// Track i's observation in this frame, if matched.
     observed: [Option<Observation>; N],
+    /// The heading change from the whole image.
+    image: ImageHeading<K>,
 }
 
-impl<const N: usize, const F: usize, const GRID: usize> PitchVote<N, F, GRID> {
+impl<const N: usize, const F: usize, const GRID: usize, const K: usize> PitchVote<N, F, GRID, K> {
     /// No configuration: every bit zero, for a zero-initialised `static`.
     pub const ZERO: Self = Self {
         fans: Fans::ZERO,
@@ -108,11 +111,13 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVote<N, F, GRID> {
         hidden: [[false; F]; 2],
         search: Search::new(),
         observed: [None; N],
+        image: ImageHeading::ZERO,
     };
 
     /// Takes `cfg` (its hypotheses built in place) and forgets every frame.
     pub fn configure(&mut self, cfg: &ValidConfig) {
         self.fans.build(cfg);
+        self.image.configure(cfg);
         self.reset(cfg);
     }
 
@@ -122,6 +127,21 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVote<N, F, GRID> {
         self.drift = AttitudeDrift::ZERO;
         self.weak_frames = 0;
         self.comoving.clear();
+        self.image.reset();
+    }
+
+    /// The heading change from the whole image (with `image_heading`): this frame's corners
+    /// matched with the last frame's, the motion they agree on. `prior`: the predicted motion
+    /// and this frame's interval over the last one's (`None` on a drive's first frame).
+    pub fn image_heading<Fr: crate::Frame + ?Sized>(
+        &mut self,
+        frame: &Fr,
+        cfg: &ValidConfig,
+        prior: Option<(Option<Motion>, f32)>,
+    ) -> Option<ImageMotion> {
+        cfg.settings()
+            .image_heading
+            .then(|| self.image.track(frame, cfg, prior))
     }
 
     /// How the last frame was seen: its attitude hypothesis's homography and roll map.
@@ -203,8 +223,18 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVote<N, F, GRID> {
         }
     }
 
-    /// The window of this frame's vote (step 1).
+    /// The window of this frame's vote (step 1); its heading the whole image's, where there is
+    /// one, +-`image_heading_window_deg`.
     pub fn window(cfg: &ValidConfig, prior: &Prior, interval: Duration) -> MotionWindow {
+        let w = Self::ground_window(cfg, prior, interval);
+        match prior.image_heading_rad {
+            Some(h) => w.with_heading(h, cfg.settings().image_heading_window_rad),
+            None => w,
+        }
+    }
+
+    /// The window of the ground's own vote.
+    fn ground_window(cfg: &ValidConfig, prior: &Prior, interval: Duration) -> MotionWindow {
         let s = cfg.settings();
         let Some(m) = prior.prediction else {
             return Self::startup_window(cfg);
@@ -288,6 +318,10 @@ impl<const N: usize, const F: usize, const GRID: usize> PitchVote<N, F, GRID> {
             };
             if self.weak_frames >= REACQUIRE_AFTER_FRAMES {
                 let wide = Self::startup_window(cfg).short_of_stop(m, s.distance_window_m);
+                let wide = match prior.image_heading_rad {
+                    Some(h) => wide.with_heading(h, s.image_heading_window_rad),
+                    None => wide,
+                };
                 let drift_after = self.drift;
                 self.drift = drift_before;
                 let again = self.search.estimate(

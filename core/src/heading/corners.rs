@@ -1,0 +1,230 @@
+//! Corners over the whole frame: the FAST segment test (a pixel whose ring of sixteen at radius
+//! 3 holds nine in a row all brighter, or all darker, than it by the threshold), integer only,
+//! kept the strongest few per cell of a grid so that no one patch of the scene holds them all.
+
+use crate::frame::Frame;
+
+/// A corner of the whole frame: its pixel and its FAST score.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ImageCorner {
+    /// Column, pixels.
+    pub u: u16,
+    /// Row, pixels.
+    pub v: u16,
+    /// How far the ring's pixels stand beyond the threshold, summed (grey levels).
+    pub score: u16,
+}
+
+/// Pixels in a row of the ring that make a corner.
+const ARC: u32 = 9;
+
+/// Closest two kept corners of one cell may be, pixels (each axis).
+const MIN_SEPARATION_PX: u16 = 5;
+
+/// How the frame is shared out: a grid of `columns x rows` cells, `per_cell` corners each.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Grid {
+    /// Cells across.
+    pub columns: u16,
+    /// Cells down.
+    pub rows: u16,
+    /// Corners kept a cell.
+    pub per_cell: u16,
+}
+
+impl Grid {
+    /// Corners it keeps at most.
+    pub fn capacity(&self) -> usize {
+        usize::from(self.columns) * usize::from(self.rows) * usize::from(self.per_cell)
+    }
+}
+
+/// Whether a ring's mask (bit k: pixel k of the ring) holds [`ARC`] in a row, round the ring.
+fn has_arc(mask: u16) -> bool {
+    let m = u32::from(mask) | (u32::from(mask) << 16);
+    let mut run = m;
+    for _ in 1..ARC {
+        run &= run >> 1;
+    }
+    run != 0
+}
+
+/// Pixels between the places tested, each axis: a corner fires the test at several pixels
+/// around it, so every other column of every other row finds it, in a quarter of the time
+/// (and where exactly it sits does not matter: its patch is what is found again).
+const STRIDE: usize = 2;
+
+/// The ring's pixels around column `u` of the middle one of seven rows.
+fn ring(rows: &[&[u8]; 7], u: usize) -> Option<[i16; 16]> {
+    let px = |r: usize, x: usize| rows[r].get(x).copied().map(i16::from);
+    Some([
+        px(0, u)?,
+        px(0, u + 1)?,
+        px(1, u + 2)?,
+        px(2, u + 3)?,
+        px(3, u + 3)?,
+        px(4, u + 3)?,
+        px(5, u + 2)?,
+        px(6, u + 1)?,
+        px(6, u)?,
+        px(6, u - 1)?,
+        px(5, u - 2)?,
+        px(4, u - 3)?,
+        px(3, u - 3)?,
+        px(2, u - 3)?,
+        px(1, u - 2)?,
+        px(0, u - 1)?,
+    ])
+}
+
+/// Finds the corners of `frame` at least `border` pixels inside it with FAST threshold
+/// `threshold` (grey levels), the `grid.per_cell` strongest of each cell kept in `out` (slot
+/// `cell * per_cell + k`; `None` where a cell has fewer). `out` must hold `grid.capacity()`.
+pub fn detect<F: Frame + ?Sized>(
+    frame: &F,
+    threshold: u8,
+    grid: Grid,
+    border: u16,
+    out: &mut [Option<ImageCorner>],
+) {
+    out.fill(None);
+    let (w, h) = (frame.width(), frame.height());
+    let border = border.max(3);
+    if w <= 2 * border || h <= 2 * border || grid.capacity() == 0 || grid.capacity() > out.len() {
+        return;
+    }
+    let (inner_w, inner_h) = (w - 2 * border, h - 2 * border);
+    let cell_w = inner_w.div_ceil(grid.columns.max(1));
+    let cell_h = inner_h.div_ceil(grid.rows.max(1));
+    let t = i16::from(threshold);
+    let (first, end) = (usize::from(border), usize::from(w - border));
+    for v in (border..h - border).step_by(STRIDE) {
+        let rows: [&[u8]; 7] = core::array::from_fn(|k| frame.row(v - 3 + k as u16));
+        let cell_row = (v - border) / cell_h;
+        fn span(r: &[u8], first: usize, end: usize) -> &[u8] {
+            r.get(first..end).unwrap_or_default()
+        }
+        let (top, middle, bottom) = (
+            span(rows[0], first, end),
+            span(rows[3], first, end),
+            span(rows[6], first, end),
+        );
+        let tested = top.iter().zip(middle).zip(bottom).step_by(STRIDE);
+        for (k, ((&up, &c), &down)) in tested.enumerate() {
+            let (up, c, down) = (i16::from(up), i16::from(c), i16::from(down));
+            // Nine in a row take in the top or the bottom of the ring, and two of its four
+            // compass pixels.
+            if (up - c).abs() <= t && (down - c).abs() <= t {
+                continue;
+            }
+            let u = first + k * STRIDE;
+            let (hi, lo) = (c + t, c - t);
+            let side = |x: usize| rows[3].get(x).map_or(c, |&p| i16::from(p));
+            let (left, right) = (side(u - 3), side(u + 3));
+            let compass = [up, right, down, left];
+            let bright = compass.iter().filter(|&&p| p > hi).count();
+            let dark = compass.iter().filter(|&&p| p < lo).count();
+            if bright < 2 && dark < 2 {
+                continue;
+            }
+            let Some(ring) = ring(&rows, u) else {
+                continue;
+            };
+            let (mut bright_mask, mut dark_mask) = (0u16, 0u16);
+            for (k, &p) in ring.iter().enumerate() {
+                bright_mask |= u16::from(p > hi) << k;
+                dark_mask |= u16::from(p < lo) << k;
+            }
+            let score: i32 = if has_arc(bright_mask) {
+                ring.iter().map(|&p| i32::from((p - hi).max(0))).sum()
+            } else if has_arc(dark_mask) {
+                ring.iter().map(|&p| i32::from((lo - p).max(0))).sum()
+            } else {
+                continue;
+            };
+            let u = u as u16;
+            let corner = ImageCorner {
+                u,
+                v,
+                score: u16::try_from(score).unwrap_or(u16::MAX),
+            };
+            let cell = usize::from(cell_row) * usize::from(grid.columns)
+                + usize::from((u - border) / cell_w);
+            let first = cell * usize::from(grid.per_cell);
+            if let Some(slots) = out.get_mut(first..first + usize::from(grid.per_cell)) {
+                keep(slots, corner);
+            }
+        }
+    }
+}
+
+/// Keeps `c` among a cell's strongest `slots`, no two closer than [`MIN_SEPARATION_PX`].
+fn keep(slots: &mut [Option<ImageCorner>], c: ImageCorner) {
+    let near = |o: &ImageCorner| {
+        o.u.abs_diff(c.u) < MIN_SEPARATION_PX && o.v.abs_diff(c.v) < MIN_SEPARATION_PX
+    };
+    if slots
+        .iter()
+        .flatten()
+        .any(|o| near(o) && o.score >= c.score)
+    {
+        return;
+    }
+    // Weaker neighbours give way.
+    for slot in slots.iter_mut() {
+        if slot.is_some_and(|o| near(&o)) {
+            *slot = None;
+        }
+    }
+    let weakest = slots
+        .iter_mut()
+        .min_by_key(|s| s.map_or(0, |o| u32::from(o.score) + 1));
+    if let Some(slot) = weakest
+        && slot.is_none_or(|o| o.score < c.score)
+    {
+        *slot = Some(c);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frame::SliceFrame;
+    use std::vec;
+    use std::vec::Vec;
+
+    #[test]
+    fn a_bright_square_on_dark_has_corners_at_its_corners_only() {
+        let (w, h) = (64u16, 48u16);
+        let mut img = vec![20u8; usize::from(w) * usize::from(h)];
+        for y in 16..32 {
+            for x in 20..40 {
+                img[y * usize::from(w) + x] = 200;
+            }
+        }
+        let frame = SliceFrame::new(&img, w, h, usize::from(w)).unwrap();
+        let grid = Grid {
+            columns: 2,
+            rows: 2,
+            per_cell: 4,
+        };
+        let mut out = [None; 16];
+        detect(&frame, 30, grid, 4, &mut out);
+        let found: Vec<_> = out.iter().flatten().collect();
+        assert!(found.len() >= 4, "{found:?}");
+        for c in &found {
+            let at_corner = [(20, 16), (39, 16), (20, 31), (39, 31)]
+                .iter()
+                .any(|&(x, y)| c.u.abs_diff(x) <= 2 && c.v.abs_diff(y) <= 2);
+            assert!(at_corner, "{c:?} is not at a corner of the square");
+        }
+    }
+
+    #[test]
+    fn arcs_wrap_round_the_ring() {
+        assert!(has_arc(0b1111_1111_1000_0000 | 0b1));
+        assert!(!has_arc(0b0000_0000_1111_1111));
+        assert!(has_arc(0b0000_0001_1111_1111));
+    }
+}

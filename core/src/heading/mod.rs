@@ -1,0 +1,369 @@
+//! The heading change from the whole image. The ground plane gives metric distance, but its
+//! heading answers to the mount's roll and yaw as the ground window sees them; rotation about
+//! the vertical moves every point of the image alike, at any depth, whatever the mount's pitch,
+//! roll or height. Per frame:
+//!
+//! 1. **Corners** ([`corners`]): FAST corners over the whole frame, the strongest few per cell
+//!    of a grid: the candidates.
+//! 2. **Matches**: each of the last frame's features looks for its 7x7 patch ([`patch`]) among
+//!    the candidates nearest where it should be (where its own image motion of the last frame
+//!    takes it, or for a new one where the predicted heading change turns it), to a fraction
+//!    of a pixel; a pair stands where each is the other's best.
+//! 3. **Consensus** ([`consensus`]): a vote over heading change by pitch change, every pair
+//!    voting through its distance from the planar motion's epipolar constraint ([`epipolar`]),
+//!    then Gauss-Newton on the peak's inliers over heading, pitch and roll change and the
+//!    direction of travel. The heading stands where enough pairs agree and determine it.
+//! 4. **Features for the next frame**: the paired candidates carry their tracks on; each cell
+//!    is filled up to its share with its strongest other candidates. A track lives as long as
+//!    its corner is found again, not only while it stays among its cell's strongest.
+//!
+//! The odometer takes the heading change where it stands, and the ground vote's distance given
+//! that heading.
+
+pub mod consensus;
+pub mod corners;
+pub mod epipolar;
+pub mod patch;
+
+use crate::config::ValidConfig;
+use crate::frame::Frame;
+use crate::motion::Motion;
+use consensus::{Fit, Pair, Search};
+use corners::{Grid, ImageCorner};
+use epipolar::{Model, Params};
+use heapless::Vec;
+use nalgebra::Vector3;
+use patch::Patch;
+
+/// Half width of the pitch-change search, radians (0.6 deg: a suspension's +-0.5 deg at 1.5 Hz
+/// changes by up to 0.47 deg in 0.1 s).
+const PITCH_HALF_RAD: f32 = 0.6 * core::f32::consts::PI / 180.0;
+
+/// How far from its predicted place a feature tracked last frame is looked for, pixels (each
+/// axis): its image motion changes little between two frames.
+const TRACKED_REACH_PX: f32 = 10.0;
+
+/// How far a feature new last frame is looked for around the place the predicted heading change
+/// turns it to, pixels (columns, rows): points a few metres away move tens of pixels a frame.
+const NEW_REACH_PX: (f32, f32) = (48.0, 32.0);
+
+/// Least distance travelled the translation is given, metres: standing still, the constraint
+/// keeps a direction.
+const MIN_DISTANCE_M: f32 = 0.1;
+
+/// Candidates a cell keeps for each feature it holds.
+const CANDIDATES_PER_FEATURE: usize = 4;
+
+/// Candidates a feature's patch is looked for at: those within reach nearest its predicted
+/// place.
+const TRIED: usize = 4;
+
+/// Image motions are kept in sixteenths of a pixel.
+const FLOW_SCALE: f32 = 16.0;
+
+/// One feature: its pixel, its patch, and its image motion from the frame before, sixteenths
+/// of a pixel, where it was tracked there.
+#[derive(Clone, Copy, Debug)]
+struct Feature {
+    u: u16,
+    v: u16,
+    patch: Patch,
+    flow: Option<(i16, i16)>,
+}
+
+/// What the whole image said of a frame's heading.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ImageMotion {
+    /// Corners found over the frame.
+    pub corners: u16,
+    /// Pairs with the last frame's features.
+    pub matches: u16,
+    /// Pairs the motion holds (0 without a motion).
+    pub inliers: u16,
+    /// The heading change, radians, where enough pairs agree and determine it.
+    pub heading_change_rad: Option<f32>,
+    /// The change of the body's pitch the pairs show, radians (0 without a motion).
+    pub pitch_change_rad: f32,
+    /// Their root mean square distance from the motion, pixels (0 without one).
+    pub rms_px: f32,
+    /// The heading change's standard deviation, radians (0 without a motion).
+    pub heading_sd_rad: f32,
+}
+
+/// A candidate's best previous feature: which, and how unlike (hundredths of a grey level).
+type Best = Option<(u16, u8)>;
+
+/// The stage's state across frames and its working memory, for up to `K` features a frame.
+#[derive(Clone, Debug)]
+pub struct ImageHeading<const K: usize> {
+    model: Model,
+    /// The last frame's features while this frame is matched; then this frame's.
+    features: Vec<Feature, K>,
+    /// This frame's candidates, `CANDIDATES_PER_FEATURE` slots for each feature slot.
+    candidates: [[Option<ImageCorner>; CANDIDATES_PER_FEATURE]; K],
+    /// Per feature: the candidate it found (index) and where it landed, pixels.
+    found: [Option<(u16, f32, f32)>; K],
+    /// Per candidate: the best previous feature.
+    best: [[Best; CANDIDATES_PER_FEATURE]; K],
+    /// Per candidate: its image motion from the feature it was paired with.
+    flow: [[Option<(i16, i16)>; CANDIDATES_PER_FEATURE]; K],
+    pairs: Vec<Pair, K>,
+    inlier: [bool; K],
+}
+
+impl<const K: usize> ImageHeading<K> {
+    /// Nothing seen: every bit zero.
+    pub const ZERO: Self = Self {
+        model: Model::ZERO,
+        features: Vec::new(),
+        candidates: [[None; CANDIDATES_PER_FEATURE]; K],
+        found: [None; K],
+        best: [[None; CANDIDATES_PER_FEATURE]; K],
+        flow: [[None; CANDIDATES_PER_FEATURE]; K],
+        pairs: Vec::new(),
+        inlier: [false; K],
+    };
+
+    /// Takes `cfg`'s camera and forgets every frame.
+    pub fn configure(&mut self, cfg: &ValidConfig) {
+        self.model = Model::new(&cfg.config().mount);
+        self.reset();
+    }
+
+    /// Forgets every frame.
+    pub fn reset(&mut self) {
+        self.features.clear();
+    }
+
+    /// Finds this frame's corners, matches them with the last frame's features and, with
+    /// `prior` (the predicted motion and the ratio of this frame's interval to the last one's;
+    /// `None` on the first frame of a drive), the motion they agree on; then keeps this frame's
+    /// features for the next.
+    pub fn track<F: Frame + ?Sized>(
+        &mut self,
+        frame: &F,
+        cfg: &ValidConfig,
+        prior: Option<(Option<Motion>, f32)>,
+    ) -> ImageMotion {
+        let s = cfg.settings();
+        let grid = Grid {
+            columns: u16::from(s.image_grid_columns),
+            rows: u16::from(s.image_grid_rows),
+            per_cell: u16::from(s.image_corners_per_cell) * CANDIDATES_PER_FEATURE as u16,
+        };
+        let slots = self.candidates.as_flattened_mut();
+        corners::detect(frame, s.image_corner_threshold, grid, patch::MARGIN, slots);
+        self.flow = [[None; CANDIDATES_PER_FEATURE]; K];
+        let mut out = ImageMotion {
+            corners: self.candidates.as_flattened().iter().flatten().count() as u16,
+            ..ImageMotion::default()
+        };
+        if let Some((prediction, ratio)) = prior {
+            out.matches = self.pair(frame, cfg, prediction, ratio) as u16;
+            if let Some(fit) = self.consensus(cfg, prediction) {
+                out.inliers = fit.inliers;
+                out.heading_change_rad =
+                    (fit.heading_sd_rad <= s.image_max_heading_sd_rad).then_some(fit.params.alpha);
+                out.pitch_change_rad = fit.params.pitch;
+                out.rms_px = fit.rms_px;
+                out.heading_sd_rad = fit.heading_sd_rad;
+            }
+        }
+        self.keep_features(frame, grid);
+        out
+    }
+
+    /// This frame's features, for the next: every paired candidate (its track goes on), then
+    /// each cell's strongest others up to its share.
+    fn keep_features<F: Frame + ?Sized>(&mut self, frame: &F, grid: Grid) {
+        self.features.clear();
+        let per_cell = usize::from(grid.per_cell).max(1);
+        let share = per_cell / CANDIDATES_PER_FEATURE;
+        let cells = self.candidates.as_flattened().chunks(per_cell);
+        let flows = self.flow.as_flattened().chunks(per_cell);
+        for (cell, flows) in cells.zip(flows) {
+            let mut held = 0;
+            let mut take = |c: &ImageCorner, flow| {
+                let _ = self.features.push(Feature {
+                    u: c.u,
+                    v: c.v,
+                    patch: patch::read(frame, c.u, c.v),
+                    flow,
+                });
+            };
+            for (c, flow) in cell.iter().zip(flows) {
+                if let (Some(c), Some(_)) = (c, flow) {
+                    held += 1;
+                    take(c, *flow);
+                }
+            }
+            // The rest of the cell's share: its strongest unpaired candidates, strongest first.
+            let mut taken = [false; 4 * CANDIDATES_PER_FEATURE];
+            while held < share {
+                let strongest = cell
+                    .iter()
+                    .zip(flows)
+                    .zip(&taken)
+                    .enumerate()
+                    .filter_map(|(k, ((c, flow), &t))| {
+                        c.filter(|_| flow.is_none() && !t).map(|c| (k, c))
+                    })
+                    .max_by_key(|(_, c)| c.score);
+                let Some((k, c)) = strongest else {
+                    break;
+                };
+                if let Some(t) = taken.get_mut(k) {
+                    *t = true;
+                }
+                held += 1;
+                take(&c, None);
+            }
+        }
+    }
+
+    /// The ray of pixel (`u`, `v`): normalised image coordinates.
+    fn ray(cfg: &ValidConfig, u: f32, v: f32) -> Vector3<f32> {
+        let k = &cfg.config().camera;
+        Vector3::new((u - k.cx_px) / k.fx_px, (v - k.cy_px) / k.fy_px, 1.0)
+    }
+
+    /// Pairs the last frame's features with this frame's candidates; how many.
+    fn pair<F: Frame + ?Sized>(
+        &mut self,
+        frame: &F,
+        cfg: &ValidConfig,
+        prediction: Option<Motion>,
+        ratio: f32,
+    ) -> usize {
+        let s = cfg.settings();
+        let k = &cfg.config().camera;
+        // The camera's rotation under the predicted heading change alone (points far away).
+        let rotation = self.model.rotation(&Params {
+            alpha: prediction.map_or(0.0, |m| m.heading_change_rad),
+            ..Params::default()
+        });
+        self.best = [[None; CANDIDATES_PER_FEATURE]; K];
+        self.found = [None; K];
+        let candidates = self.candidates.as_flattened();
+        for (i, p) in self.features.iter().enumerate() {
+            let (pu, pv) = (f32::from(p.u), f32::from(p.v));
+            let (centre, reach) = match p.flow {
+                Some((du, dv)) => (
+                    (
+                        pu + f32::from(du) / FLOW_SCALE * ratio,
+                        pv + f32::from(dv) / FLOW_SCALE * ratio,
+                    ),
+                    (TRACKED_REACH_PX, TRACKED_REACH_PX),
+                ),
+                None => {
+                    let x = rotation * Self::ray(cfg, pu, pv);
+                    if x.z <= 0.0 {
+                        continue;
+                    }
+                    (
+                        (k.cx_px + k.fx_px * x.x / x.z, k.cy_px + k.fy_px * x.y / x.z),
+                        NEW_REACH_PX,
+                    )
+                }
+            };
+            // The candidates within reach nearest the predicted place.
+            let mut nearest: [Option<(f32, usize)>; TRIED] = [None; TRIED];
+            for (j, c) in candidates.iter().enumerate() {
+                let Some(c) = c else { continue };
+                let (du, dv) = (f32::from(c.u) - centre.0, f32::from(c.v) - centre.1);
+                if du.abs() > reach.0 || dv.abs() > reach.1 {
+                    continue;
+                }
+                let d = du * du + dv * dv;
+                let farthest = nearest.iter_mut().max_by(|a, b| {
+                    let far = |x: &&mut Option<(f32, usize)>| x.map_or(f32::MAX, |x| x.0);
+                    far(a).total_cmp(&far(b))
+                });
+                if let Some(slot) = farthest
+                    && slot.is_none_or(|(far, _)| d < far)
+                {
+                    *slot = Some((d, j));
+                }
+            }
+            let mut best: Option<(f32, usize, patch::Found)> = None;
+            for &(_, j) in nearest.iter().flatten() {
+                let Some(Some(c)) = candidates.get(j) else {
+                    continue;
+                };
+                let Some(at) = patch::find(frame, &p.patch, c.u, c.v) else {
+                    continue;
+                };
+                if at.unlikeness <= s.image_max_unlikeness_dn
+                    && best.is_none_or(|b| at.unlikeness < b.0)
+                {
+                    best = Some((at.unlikeness, j, at));
+                }
+            }
+            let Some((unlikeness, j, at)) = best else {
+                continue;
+            };
+            if let Some(slot) = self.found.get_mut(i) {
+                *slot = Some((j as u16, at.u_px, at.v_px));
+            }
+            // Hundredths of a grey level: the threshold is at most 255.
+            let unlike = (unlikeness * 100.0) as u16;
+            if let Some(b) = self.best.as_flattened_mut().get_mut(j)
+                && b.is_none_or(|(u, _)| unlike < u)
+            {
+                *b = Some((unlike, i as u8));
+            }
+        }
+        // A pair stands where each is the other's best.
+        self.pairs.clear();
+        for (i, p) in self.features.iter().enumerate() {
+            let Some(Some((j, u, v))) = self.found.get(i).copied() else {
+                continue;
+            };
+            let j = usize::from(j);
+            let best = self.best.as_flattened().get(j).copied().flatten();
+            if best.is_none_or(|(_, b)| usize::from(b) != i) {
+                continue;
+            }
+            let Some(Some(c)) = candidates.get(j) else {
+                continue;
+            };
+            let x1 = Self::ray(cfg, f32::from(p.u), f32::from(p.v));
+            let x2 = Self::ray(cfg, u, v);
+            let _ = self.pairs.push(Pair { x1, x2 });
+            let moved = |a: u16, b: u16| ((f32::from(a) - f32::from(b)) * FLOW_SCALE) as i16;
+            if let Some(flow) = self.flow.as_flattened_mut().get_mut(j) {
+                *flow = Some((moved(c.u, p.u), moved(c.v, p.v)));
+            }
+        }
+        self.pairs.len()
+    }
+
+    /// The motion the pairs agree on, if enough do.
+    fn consensus(&mut self, cfg: &ValidConfig, prediction: Option<Motion>) -> Option<Fit> {
+        let s = cfg.settings();
+        let (alpha, alpha_half) = match prediction {
+            Some(m) => (m.heading_change_rad, s.heading_window_rad),
+            None => (0.0, s.startup_heading_window_rad),
+        };
+        let search = Search {
+            alpha,
+            alpha_half,
+            pitch_half: PITCH_HALF_RAD,
+            distance_m: prediction.map_or(0.0, |m| m.distance_m).max(MIN_DISTANCE_M),
+            focal_px: cfg.config().camera.fx_px,
+            kernel_px: s.image_kernel_px,
+            inlier_px: s.image_inlier_px,
+        };
+        let (start, _) = consensus::vote(&self.model, &self.pairs, &search)?;
+        let inlier = self.inlier.get_mut(..self.pairs.len()).unwrap_or_default();
+        consensus::refine(
+            &self.model,
+            &self.pairs,
+            start,
+            &search,
+            s.image_min_inliers,
+            inlier,
+        )
+    }
+}
