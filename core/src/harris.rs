@@ -377,6 +377,8 @@ mod tests {
         for far_m in [12.0, 20.0] {
             let mut c = kitti_config();
             c.settings.window_far_m = far_m;
+            // The ground window's rows alone: the whole image's heading reads every row.
+            c.settings.image_heading = false;
             let cfg = c.validate().unwrap();
             let img = frame_with_squares(&cfg, &[GroundPoint { x_m: 8.0, y_m: 1.0 }], 6);
             let f = Recording {

@@ -206,9 +206,5 @@ settings! {
         /// turn from a sideways step, and the ground window's vote is the better there.
         image_max_heading_sd_rad: f32 = deg(0.05), above 0.0, max 10.0
             => "image_max_heading_sd_deg";
-        /// Whole-image heading: half width of the ground vote's heading window around the
-        /// image's heading, per frame (0.1 deg).
-        image_heading_window_rad: f32 = deg(0.1), above 0.0, max 10.0
-            => "image_heading_window_deg";
     }
 }

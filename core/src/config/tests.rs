@@ -42,7 +42,14 @@ fn kitti_config_is_valid_and_roi_is_the_lower_band() {
         x_m: 8.0,
         y_m: -3.5
     }));
-    assert_eq!(v.rows_read(), roi.top_px - 3..376);
+    // The whole frame for the heading from the whole image; else the ground window's rows.
+    assert_eq!(v.rows_read(), 0..376);
+    let mut ground_only = kitti_config();
+    ground_only.settings.image_heading = false;
+    assert_eq!(
+        ground_only.validate().unwrap().rows_read(),
+        roi.top_px - 3..376
+    );
 }
 
 #[test]

@@ -131,9 +131,14 @@ impl ValidConfig {
         (top <= bottom).then_some((top, bottom))
     }
 
-    /// The rows of each frame the odometer reads (the region of interest and the corner
-    /// detector's border): a camera need deliver no others.
+    /// The rows of each frame the odometer reads: every row with `image_heading` (the pitch
+    /// vote's heading from the whole image), else the region of interest and the corner
+    /// detector's border. A camera need deliver no others.
     pub fn rows_read(&self) -> core::ops::Range<u16> {
+        let s = &self.config.settings;
+        if s.image_heading && s.method == crate::Method::PitchVote {
+            return 0..self.config.camera.height_px;
+        }
         let roi = self.window.roi;
         match inside_border(roi.top_px, roi.bottom_px, self.config.camera.height_px) {
             Some((top, bottom)) => top - DETECTOR_BORDER_PX..bottom + DETECTOR_BORDER_PX + 1,

@@ -55,27 +55,33 @@ fn has_arc(mask: u16) -> bool {
 /// (and where exactly it sits does not matter: its patch is what is found again).
 const STRIDE: usize = 2;
 
-/// The ring's pixels around column `u` of the middle one of seven rows.
-fn ring(rows: &[&[u8]; 7], u: usize) -> Option<[i16; 16]> {
-    let px = |r: usize, x: usize| rows[r].get(x).copied().map(i16::from);
-    Some([
-        px(0, u)?,
-        px(0, u + 1)?,
-        px(1, u + 2)?,
-        px(2, u + 3)?,
-        px(3, u + 3)?,
-        px(4, u + 3)?,
-        px(5, u + 2)?,
-        px(6, u + 1)?,
-        px(6, u)?,
-        px(6, u - 1)?,
-        px(5, u - 2)?,
-        px(4, u - 3)?,
-        px(3, u - 3)?,
-        px(2, u - 3)?,
-        px(1, u - 2)?,
-        px(0, u - 1)?,
-    ])
+/// The ring of sixteen at radius 3, in order round it: (row of the seven, column offset).
+const RING: [(usize, isize); 16] = [
+    (0, 0),
+    (0, 1),
+    (1, 2),
+    (2, 3),
+    (3, 3),
+    (4, 3),
+    (5, 2),
+    (6, 1),
+    (6, 0),
+    (6, -1),
+    (5, -2),
+    (4, -3),
+    (3, -3),
+    (2, -3),
+    (1, -2),
+    (0, -1),
+];
+
+/// The ring's pixels around column `u` of the middle one of seven rows, each at least `u + 4`
+/// long.
+fn ring(rows: &[&[u8]; 7], u: usize) -> [i16; 16] {
+    RING.map(|(r, dx)| {
+        let x = u.wrapping_add_signed(dx);
+        i16::from(rows[r].get(x).copied().unwrap_or(0))
+    })
 }
 
 /// Finds the corners of `frame` at least `border` pixels inside it with FAST threshold
@@ -95,8 +101,9 @@ pub fn detect<F: Frame + ?Sized>(
         return;
     }
     let (inner_w, inner_h) = (w - 2 * border, h - 2 * border);
-    let cell_w = inner_w.div_ceil(grid.columns.max(1));
-    let cell_h = inner_h.div_ceil(grid.rows.max(1));
+    // Never zero (inner_w, inner_h > 0); the max says so to the compiler, which keeps no panic.
+    let cell_w = inner_w.div_ceil(grid.columns.max(1)).max(1);
+    let cell_h = inner_h.div_ceil(grid.rows.max(1)).max(1);
     let t = i16::from(threshold);
     let (first, end) = (usize::from(border), usize::from(w - border));
     for v in (border..h - border).step_by(STRIDE) {
@@ -114,7 +121,7 @@ pub fn detect<F: Frame + ?Sized>(
         for (k, ((&up, &c), &down)) in tested.enumerate() {
             let (up, c, down) = (i16::from(up), i16::from(c), i16::from(down));
             // Nine in a row take in the top or the bottom of the ring, and two of its four
-            // compass pixels.
+            // compass pixels (a right angle's corner takes in exactly two).
             if (up - c).abs() <= t && (down - c).abs() <= t {
                 continue;
             }
@@ -128,9 +135,7 @@ pub fn detect<F: Frame + ?Sized>(
             if bright < 2 && dark < 2 {
                 continue;
             }
-            let Some(ring) = ring(&rows, u) else {
-                continue;
-            };
+            let ring = ring(&rows, u);
             let (mut bright_mask, mut dark_mask) = (0u16, 0u16);
             for (k, &p) in ring.iter().enumerate() {
                 bright_mask |= u16::from(p > hi) << k;
@@ -198,8 +203,9 @@ mod tests {
     fn a_bright_square_on_dark_has_corners_at_its_corners_only() {
         let (w, h) = (64u16, 48u16);
         let mut img = vec![20u8; usize::from(w) * usize::from(h)];
-        for y in 16..32 {
-            for x in 20..40 {
+        // Its corners on the pixels the detector tests (every other one, from the border).
+        for y in 16..31 {
+            for x in 20..39 {
                 img[y * usize::from(w) + x] = 200;
             }
         }
@@ -214,7 +220,7 @@ mod tests {
         let found: Vec<_> = out.iter().flatten().collect();
         assert!(found.len() >= 4, "{found:?}");
         for c in &found {
-            let at_corner = [(20, 16), (39, 16), (20, 31), (39, 31)]
+            let at_corner = [(20, 16), (38, 16), (20, 30), (38, 30)]
                 .iter()
                 .any(|&(x, y)| c.u.abs_diff(x) <= 2 && c.v.abs_diff(y) <= 2);
             assert!(at_corner, "{c:?} is not at a corner of the square");

@@ -55,8 +55,9 @@ const MIN_DISTANCE_M: f32 = 0.1;
 const CANDIDATES_PER_FEATURE: usize = 4;
 
 /// Candidates a feature's patch is looked for at: those within reach nearest its predicted
-/// place.
+/// place; two for a tracked feature, whose place is well predicted.
 const TRIED: usize = 4;
+const TRIED_TRACKED: usize = 2;
 
 /// Image motions are kept in sixteenths of a pixel.
 const FLOW_SCALE: f32 = 16.0;
@@ -248,6 +249,7 @@ impl<const K: usize> ImageHeading<K> {
         let candidates = self.candidates.as_flattened();
         for (i, p) in self.features.iter().enumerate() {
             let (pu, pv) = (f32::from(p.u), f32::from(p.v));
+            let tried = if p.flow.is_some() { TRIED_TRACKED } else { TRIED };
             let (centre, reach) = match p.flow {
                 Some((du, dv)) => (
                     (
@@ -276,7 +278,7 @@ impl<const K: usize> ImageHeading<K> {
                     continue;
                 }
                 let d = du * du + dv * dv;
-                let farthest = nearest.iter_mut().max_by(|a, b| {
+                let farthest = nearest.iter_mut().take(tried).max_by(|a, b| {
                     let far = |x: &&mut Option<(f32, usize)>| x.map_or(f32::MAX, |x| x.0);
                     far(a).total_cmp(&far(b))
                 });

@@ -224,11 +224,11 @@ impl<const N: usize, const F: usize, const GRID: usize, const K: usize> PitchVot
     }
 
     /// The window of this frame's vote (step 1); its heading the whole image's, where there is
-    /// one, +-`image_heading_window_deg`.
+    /// one: the vote is then over distance alone.
     pub fn window(cfg: &ValidConfig, prior: &Prior, interval: Duration) -> MotionWindow {
         let w = Self::ground_window(cfg, prior, interval);
         match prior.image_heading_rad {
-            Some(h) => w.with_heading(h, cfg.settings().image_heading_window_rad),
+            Some(h) => w.with_heading(h, 0.0),
             None => w,
         }
     }
@@ -319,7 +319,7 @@ impl<const N: usize, const F: usize, const GRID: usize, const K: usize> PitchVot
             if self.weak_frames >= REACQUIRE_AFTER_FRAMES {
                 let wide = Self::startup_window(cfg).short_of_stop(m, s.distance_window_m);
                 let wide = match prior.image_heading_rad {
-                    Some(h) => wide.with_heading(h, s.image_heading_window_rad),
+                    Some(h) => wide.with_heading(h, 0.0),
                     None => wide,
                 };
                 let drift_after = self.drift;

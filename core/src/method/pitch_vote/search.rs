@@ -189,7 +189,10 @@ impl<const N: usize, const F: usize, const GRID: usize> Search<N, F, GRID> {
                 let (r0, _) = residual(p, *c, &trig[0]);
                 let (r1, _) = residual(p, *c, &trig[last]);
                 let slope = (r1 - r0) / last as f32;
-                let (lo, hi) = if slope.abs() < 1e-9 {
+                let (lo, hi) = if window.heading_lo_rad == window.heading_hi_rad {
+                    // The heading is given (the whole image's): a vote over distance alone.
+                    (GRID / 2, GRID / 2)
+                } else if slope.abs() < 1e-9 {
                     if r0.abs() >= tolerance_m {
                         continue;
                     }
