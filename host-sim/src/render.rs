@@ -272,7 +272,11 @@ const CLEARANCE_M: f64 = 0.3;
 impl BoxState {
     /// Nearest intersection parameter and shade of a ray `o + t d` with the box.
     fn hit(&self, o: [f64; 3], d: [f64; 3]) -> Option<(f64, f64)> {
-        let (s, c) = self.heading_rad.sin_cos();
+        self.hit_turned(o, d, self.heading_rad.sin_cos())
+    }
+
+    /// [`BoxState::hit`] given the sine and cosine of its heading.
+    fn hit_turned(&self, o: [f64; 3], d: [f64; 3], (s, c): (f64, f64)) -> Option<(f64, f64)> {
         let (ox, oy) = (o[0] - self.centre.0, o[1] - self.centre.1);
         let lo = [c * ox + s * oy, -s * ox + c * oy, o[2]];
         let ld = [c * d[0] + s * d[1], -s * d[0] + c * d[1], d[2]];
@@ -329,7 +333,11 @@ impl BoxState {
     }
 
     fn covers(&self, x: f64, y: f64) -> bool {
-        let (s, c) = self.heading_rad.sin_cos();
+        self.covers_turned(x, y, self.heading_rad.sin_cos())
+    }
+
+    /// [`BoxState::covers`] given the sine and cosine of its heading.
+    fn covers_turned(&self, x: f64, y: f64, (s, c): (f64, f64)) -> bool {
         let (dx, dy) = (x - self.centre.0, y - self.centre.1);
         (c * dx + s * dy).abs() <= self.size.0 && (-s * dx + c * dy).abs() <= self.size.1
     }
@@ -741,6 +749,13 @@ const SUN_H: [f64; 2] = [0.832_050_294_337_843_2, 0.554_700_196_225_228_8];
 /// Direction the light comes from (unit), for shading curved surfaces.
 const SUN: [f64; 3] = [0.5, 0.333_333_333_333_333_3, 0.8];
 
+/// `x.floor()` for finite `x` of magnitude under 2^63 (but +0 for -0), without the call that
+/// `f64::floor` is on baseline x86-64.
+fn fast_floor(x: f64) -> f64 {
+    let t = x as i64 as f64;
+    if t > x { t - 1.0 } else { t }
+}
+
 fn lerp(r: [f64; 2], f: f64) -> f64 {
     r[0] + (r[1] - r[0]) * f
 }
@@ -947,15 +962,16 @@ fn facade(style: u64, u: f64, z: f64, width: f64, height: f64) -> f64 {
     if z > height - 0.35 {
         return 0.6 * base;
     }
-    let bays = (width / bay).floor().max(1.0);
+    let bays = fast_floor(width / bay).max(1.0);
     let bu = u - 0.5 * (width - bays * bay);
-    let bi = (bu / bay).floor();
-    let fi = (z / storey).floor();
+    let bi = fast_floor(bu / bay);
+    let fi = fast_floor(z / storey);
     let fz = z - fi * storey;
     if bi >= 0.0 && bi < bays && z < height - 0.9 {
         let x = bu - (bi + 0.5) * bay;
-        let look = hash(bi as i64, fi as i64, style, 31);
+        let look = || hash(bi as i64, fi as i64, style, 31);
         if fi == 0.0 {
+            let look = look();
             if unit(look, 5) < 0.3 {
                 // A door: frame, dark panel, a handle.
                 if x.abs() < 0.55 && z < 2.2 {
@@ -974,7 +990,7 @@ fn facade(style: u64, u: f64, z: f64, width: f64, height: f64) -> f64 {
             let w = (0.42 + 0.16 * unit(style, 5)) * bay;
             let (sill, h) = (0.3 * storey, (0.42 + 0.12 * unit(style, 6)) * storey);
             if x.abs() < 0.5 * w && fz > sill && fz < sill + h {
-                return window(x, fz - sill, w, h, look);
+                return window(x, fz - sill, w, h, look());
             }
         }
     }
@@ -982,13 +998,13 @@ fn facade(style: u64, u: f64, z: f64, width: f64, height: f64) -> f64 {
         // Bricks in stretcher bond, light mortar.
         const ROW_M: f64 = 0.075;
         const BRICK_M: f64 = 0.25;
-        let row = (z / ROW_M).floor();
+        let row = fast_floor(z / ROW_M);
         let shifted = u + if row.rem_euclid(2.0) == 1.0 {
             0.5 * BRICK_M
         } else {
             0.0
         };
-        let col = (shifted / BRICK_M).floor();
+        let col = fast_floor(shifted / BRICK_M);
         if z - row * ROW_M < 0.012 || shifted - col * BRICK_M < 0.012 {
             return (base + 35.0).min(235.0);
         }
@@ -996,7 +1012,7 @@ fn facade(style: u64, u: f64, z: f64, width: f64, height: f64) -> f64 {
     } else if kind < 0.7 {
         // Concrete panels: two a storey, dark joints.
         let (pw, ph) = (0.5 * bay, 0.5 * storey);
-        let (pu, pz) = ((u / pw).floor(), (z / ph).floor());
+        let (pu, pz) = (fast_floor(u / pw), fast_floor(z / ph));
         if u - pu * pw < 0.035 || z - pz * ph < 0.035 {
             return 0.55 * base;
         }
@@ -1199,8 +1215,8 @@ enum Structure {
     Building(Building),
     Pole(Pole),
     Tree(Tree),
-    /// A parked car.
-    Car(BoxState),
+    /// A parked car, and the sine and cosine of its heading.
+    Car(BoxState, (f64, f64)),
 }
 
 impl Structure {
@@ -1211,13 +1227,13 @@ impl Structure {
             Structure::Building(b) => b.hit(o, d, limit),
             Structure::Pole(p) => p.hit(o, d, limit),
             Structure::Tree(t) => t.hit(o, d, limit),
-            Structure::Car(c) => c.hit(o, d).filter(|h| h.0 < limit),
+            Structure::Car(c, turn) => c.hit_turned(o, d, *turn).filter(|h| h.0 < limit),
         }
     }
 
     /// Whether it shades the ground at (x, y).
     fn covers(&self, x: f64, y: f64) -> bool {
-        matches!(self, Structure::Car(c) if c.covers(x, y))
+        matches!(self, Structure::Car(c, turn) if c.covers_turned(x, y, *turn))
     }
 
     /// Corners of a box that holds it (its shadow on the ground included).
@@ -1226,7 +1242,7 @@ impl Structure {
             Structure::Building(b) => b.block.corners(),
             Structure::Pole(p) => p.bound(),
             Structure::Tree(t) => t.bound(),
-            Structure::Car(c) => Block::new(
+            Structure::Car(c, _) => Block::new(
                 c.centre,
                 c.heading_rad,
                 (c.size.0, c.size.1),
@@ -1316,7 +1332,7 @@ fn place_structures(
                 };
                 let body = Block::new(centre, heading, (0.5 * length, 0.5 * width), (0.0, height));
                 if clear(&mut body.footprint(1.0), p.offset_m - 0.05) {
-                    out.push(Structure::Car(car));
+                    out.push(Structure::Car(car, car.heading_rad.sin_cos()));
                 }
                 s += length + lerp(p.gap_m, unit(h, 5));
             }
@@ -1646,12 +1662,15 @@ mod tests {
                 symbol: 1,
             },
         });
-        let car = Structure::Car(BoxState {
-            centre: (12.0, -2.75),
-            heading_rad: 0.0,
-            size: (2.2, 0.9, 1.5),
-            shade: 100.0,
-        });
+        let car = Structure::Car(
+            BoxState {
+                centre: (12.0, -2.75),
+                heading_rad: 0.0,
+                size: (2.2, 0.9, 1.5),
+                shade: 100.0,
+            },
+            (0.0, 1.0),
+        );
         let o = [10.0, 0.0, 1.0];
         let right = [0.0, -1.0, 0.0];
         // In either order of the list (depth 0: no early stop), the pole in front wins.
@@ -1707,7 +1726,7 @@ mod tests {
         let buildings = count(|s| matches!(s, Structure::Building(_)));
         let poles = count(|s| matches!(s, Structure::Pole(_)));
         let trees = count(|s| matches!(s, Structure::Tree(_)));
-        let cars = count(|s| matches!(s, Structure::Car(_)));
+        let cars = count(|s| matches!(s, Structure::Car(..)));
         assert!(
             buildings > 30 && poles > 15 && trees > 20 && cars > 20,
             "{buildings} buildings, {poles} poles, {trees} trees, {cars} cars"
