@@ -67,6 +67,38 @@
 //!
 //! [calibration_error]        # optional: added to the mount written into mount.toml
 //! pitch_deg = 1.0
+//!
+//! # Above-ground structure, all optional and off unless its table is present. Placed along the
+//! # whole path from the seed; anything that would stand on the asphalt of any stretch of the
+//! # road is left out. Lateral distances are beyond the road's edge: the asphalt's outer border,
+//! # 0.6 m outside the painted edge line (0.5 lane + 0.6 m right of our lane's centre, 1.5 lanes
+//! # + 0.6 m left of it). Pairs are [min, max] ranges, drawn per item.
+//!
+//! [facades]                  # buildings: textured boxes (windows, doors, bricks or panels)
+//! sides = "both"             # "left", "right" or "both"
+//! setback_m = [3.0, 10.0]    # the front's distance beyond the road's edge
+//! length_m = [8.0, 25.0]     # along the road
+//! gap_m = [2.0, 10.0]        # between neighbours along the road
+//! height_m = [6.0, 15.0]
+//! depth_m = [8.0, 14.0]
+//!
+//! [poles]                    # street lights (lamp on an arm) and sign posts (a plate)
+//! sides = "both"
+//! spacing_m = 25.0           # mean distance between neighbours along a side, +-30%
+//! offset_m = 1.6             # beyond the road's edge
+//! sign_fraction = 0.4        # share of sign posts; the rest are street lights
+//!
+//! [trees]                    # a trunk and a leafy ellipsoid crown
+//! sides = "both"
+//! spacing_m = 15.0           # mean distance between neighbours along a side, +-30%
+//! offset_m = 2.6             # the trunk beyond the road's edge
+//! height_m = [5.0, 9.0]
+//!
+//! [parked]                   # parked cars (static boxes) along the road's edge
+//! sides = "right"
+//! gap_m = [1.0, 12.0]        # free space between neighbours
+//! offset_m = -0.5            # the road-side flank beyond the road's edge (negative: on the
+//!                            # asphalt; -0.5 leaves it just outside the edge line)
 //! ```
 
 use crate::mount::MountFile;
@@ -215,6 +247,133 @@ pub struct MountError {
     pub roll_deg: f32,
 }
 
+/// Which sides of the road a row of structures stands on.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Sides {
+    /// Left of the road only.
+    Left,
+    /// Right of the road only.
+    Right,
+    /// Both sides.
+    #[default]
+    Both,
+}
+
+impl Sides {
+    /// The sides as lateral signs: +1 left, -1 right.
+    pub fn signs(self) -> &'static [f64] {
+        match self {
+            Sides::Left => &[1.0],
+            Sides::Right => &[-1.0],
+            Sides::Both => &[1.0, -1.0],
+        }
+    }
+}
+
+/// Buildings along the road: textured boxes with their fronts to the road.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Facades {
+    /// Which sides.
+    pub sides: Sides,
+    /// Distance of a front beyond the road's edge, metres, [min, max].
+    pub setback_m: [f64; 2],
+    /// Length along the road, metres, [min, max].
+    pub length_m: [f64; 2],
+    /// Free space between neighbours along the road, metres, [min, max].
+    pub gap_m: [f64; 2],
+    /// Height, metres, [min, max].
+    pub height_m: [f64; 2],
+    /// Depth away from the road, metres, [min, max].
+    pub depth_m: [f64; 2],
+}
+
+impl Default for Facades {
+    fn default() -> Self {
+        Self {
+            sides: Sides::Both,
+            setback_m: [3.0, 10.0],
+            length_m: [8.0, 25.0],
+            gap_m: [2.0, 10.0],
+            height_m: [6.0, 15.0],
+            depth_m: [8.0, 14.0],
+        }
+    }
+}
+
+/// Street lights and sign posts along the verges.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Poles {
+    /// Which sides.
+    pub sides: Sides,
+    /// Mean distance between neighbours along a side, metres (each gap drawn within +-30%).
+    pub spacing_m: f64,
+    /// Distance beyond the road's edge, metres.
+    pub offset_m: f64,
+    /// Share of sign posts (a plate on a 2 m post); the rest are street lights.
+    pub sign_fraction: f64,
+}
+
+impl Default for Poles {
+    fn default() -> Self {
+        Self {
+            sides: Sides::Both,
+            spacing_m: 25.0,
+            offset_m: 1.6,
+            sign_fraction: 0.4,
+        }
+    }
+}
+
+/// Trees along the verges: a trunk and a leafy ellipsoid crown.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Trees {
+    /// Which sides.
+    pub sides: Sides,
+    /// Mean distance between neighbours along a side, metres (each gap drawn within +-30%).
+    pub spacing_m: f64,
+    /// Distance of the trunk beyond the road's edge, metres.
+    pub offset_m: f64,
+    /// Height, metres, [min, max].
+    pub height_m: [f64; 2],
+}
+
+impl Default for Trees {
+    fn default() -> Self {
+        Self {
+            sides: Sides::Both,
+            spacing_m: 15.0,
+            offset_m: 2.6,
+            height_m: [5.0, 9.0],
+        }
+    }
+}
+
+/// Parked cars along the road's edge: static boxes like the moving vehicles.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Parked {
+    /// Which sides.
+    pub sides: Sides,
+    /// Free space between neighbours, metres, [min, max].
+    pub gap_m: [f64; 2],
+    /// Distance of the road-side flank beyond the road's edge, metres; negative: on the asphalt.
+    pub offset_m: f64,
+}
+
+impl Default for Parked {
+    fn default() -> Self {
+        Self {
+            sides: Sides::Right,
+            gap_m: [1.0, 12.0],
+            offset_m: -0.5,
+        }
+    }
+}
+
 /// A whole scenario.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -257,10 +416,22 @@ pub struct Scenario {
     /// Tyre slip of the vehicle.
     #[serde(default)]
     pub slip: Option<Slip>,
+    /// Buildings along the road.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub facades: Option<Facades>,
+    /// Street lights and sign posts.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub poles: Option<Poles>,
+    /// Trees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trees: Option<Trees>,
+    /// Parked cars.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub parked: Option<Parked>,
 }
 
 /// The built-in scenarios' names.
-pub const BUILT_IN: [&str; 2] = ["s-course", "kitti-like"];
+pub const BUILT_IN: [&str; 3] = ["s-course", "kitti-like", "town"];
 
 /// The built-in overlays' names: partial scenarios merged over a scenario (`--overlay`).
 pub const BUILT_IN_OVERLAYS: [&str; 3] = ["suspension", "traffic", "slip"];
@@ -289,6 +460,7 @@ impl Scenario {
         Ok(match name {
             "s-course" => include_str!("../scenarios/s-course.toml"),
             "kitti-like" => include_str!("../scenarios/kitti-like.toml"),
+            "town" => include_str!("../scenarios/town.toml"),
             _ => bail!(
                 "no built-in scenario {name:?} (and no such file); built-ins: {}",
                 BUILT_IN.join(", ")
@@ -372,11 +544,56 @@ impl Scenario {
         {
             bail!("[kerb]: to_m must be greater than from_m");
         }
+        self.check_structures()?;
         // The true mount must make a valid odometer configuration.
         self.mount_file(false)
             .to_config()
             .validate()
             .map_err(|e| anyhow::anyhow!("camera and mount: {e}"))?;
+        Ok(())
+    }
+
+    fn check_structures(&self) -> Result<()> {
+        // A [min, max] range: finite, ordered, at least `floor`.
+        let range = |table: &str, key: &str, r: [f64; 2], floor: f64| -> Result<()> {
+            if !(r[0].is_finite() && r[1].is_finite() && r[0] >= floor && r[1] >= r[0]) {
+                bail!("[{table}]: {key} must be [min, max] with {floor} <= min <= max");
+            }
+            Ok(())
+        };
+        let finite = |table: &str, key: &str, x: f64| -> Result<()> {
+            if !x.is_finite() {
+                bail!("[{table}]: {key} must be finite");
+            }
+            Ok(())
+        };
+        if let Some(f) = &self.facades {
+            range("facades", "setback_m", f.setback_m, 0.0)?;
+            range("facades", "length_m", f.length_m, 2.0)?;
+            range("facades", "gap_m", f.gap_m, 0.0)?;
+            range("facades", "height_m", f.height_m, 1.0)?;
+            range("facades", "depth_m", f.depth_m, 1.0)?;
+        }
+        if let Some(p) = &self.poles {
+            finite("poles", "offset_m", p.offset_m)?;
+            if !(p.spacing_m.is_finite() && p.spacing_m >= 1.0) {
+                bail!("[poles]: spacing_m must be at least 1");
+            }
+            if !(0.0..=1.0).contains(&p.sign_fraction) {
+                bail!("[poles]: sign_fraction must be within 0 to 1");
+            }
+        }
+        if let Some(t) = &self.trees {
+            finite("trees", "offset_m", t.offset_m)?;
+            if !(t.spacing_m.is_finite() && t.spacing_m >= 1.0) {
+                bail!("[trees]: spacing_m must be at least 1");
+            }
+            range("trees", "height_m", t.height_m, 2.0)?;
+        }
+        if let Some(p) = &self.parked {
+            finite("parked", "offset_m", p.offset_m)?;
+            range("parked", "gap_m", p.gap_m, 0.0)?;
+        }
         Ok(())
     }
 
@@ -445,6 +662,66 @@ mod tests {
         text.push_str("\n[slip]\npivot_s2_per_m = -0.001\n");
         let err = Scenario::parse(&text).unwrap_err();
         assert!(err.to_string().contains("[slip]"), "{err}");
+    }
+
+    #[test]
+    fn structures_are_off_unless_asked_for_and_checked() {
+        for name in ["s-course", "kitti-like"] {
+            let s = Scenario::built_in(name).unwrap();
+            assert!(s.facades.is_none() && s.poles.is_none() && s.trees.is_none());
+            assert!(s.parked.is_none());
+            // Nothing about them in the scenario.toml written beside the frames.
+            let text = s.to_toml().unwrap();
+            assert!(
+                !text.contains("facades") && !text.contains("parked"),
+                "{text}"
+            );
+        }
+        let mut text = Scenario::built_in_text("kitti-like").unwrap().to_string();
+        text.push_str("\n[facades]\n[poles]\nsides = \"left\"\n[trees]\n[parked]\n");
+        let s = Scenario::parse(&text).unwrap();
+        assert_eq!(s.facades, Some(Facades::default()));
+        assert_eq!(s.poles.as_ref().map(|p| p.sides), Some(Sides::Left));
+        assert_eq!(s.parked.as_ref().map(|p| p.sides), Some(Sides::Right));
+        for (table, bad) in [
+            ("facades", "height_m = [10.0, 5.0]"),
+            ("facades", "setback_m = [-1.0, 5.0]"),
+            ("trees", "height_m = [1.0, 5.0]"),
+            ("poles", "sign_fraction = 1.5"),
+            ("parked", "gap_m = [1.0, inf]"),
+        ] {
+            let mut text = Scenario::built_in_text("kitti-like").unwrap().to_string();
+            text.push_str(&format!("\n[{table}]\n{bad}\n"));
+            let err = Scenario::parse(&text).unwrap_err();
+            assert!(
+                err.to_string().contains(&format!("[{table}]")),
+                "{bad}: {err}"
+            );
+        }
+    }
+
+    #[test]
+    fn town_turns_four_right_angles_between_its_speeds() {
+        let s = Scenario::load("town", &["suspension".into(), "traffic".into()]).unwrap();
+        assert_eq!((s.camera, s.mount), {
+            let k = Scenario::built_in("kitti-like").unwrap();
+            (k.camera, k.mount)
+        });
+        assert!(s.facades.is_some() && s.poles.is_some() && s.trees.is_some());
+        assert!(s.parked.is_some() && s.render.texture_density <= 0.25);
+        let path = crate::path::Path::new(&s.segments).unwrap();
+        assert!(
+            (400.0..500.0).contains(&path.length_m()),
+            "{}",
+            path.length_m()
+        );
+        // Left, right, right, left: back to the start's heading, a quarter turn at each.
+        let end = path.pose_at(path.length_m());
+        assert!(end.heading_rad.abs() < 1e-4, "{end:?}");
+        let quarter = |a: f64, b: f64| path.pose_at(b).heading_rad - path.pose_at(a).heading_rad;
+        assert!((quarter(35.0, 90.0) - std::f64::consts::FRAC_PI_2).abs() < 1e-4);
+        let speeds = s.speed.iter().map(|k| k.speed_m_s);
+        assert!(speeds.clone().all(|v| (5.0..=12.0).contains(&v)));
     }
 
     #[test]
