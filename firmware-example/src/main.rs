@@ -1,22 +1,31 @@
-//! roadvo on a Cortex-M7, as an ECU integrates it: the odometer in a zero-initialised `static`,
-//! the configuration validated once at start-up, then one call to `process` per camera frame.
+//! roadvo on a Cortex-M7, as an ECU integrates it: the configuration compiled in (exported from
+//! a mount file by `roadvo export-config --rust`) and validated once at boot, the odometer in a
+//! zero-initialised `static`, then one call to `process` per camera frame.
 //!
-//! The camera is stood in for by a recorded drive in the board's frame memory, with the whole
-//! configuration it is to be run with (the core's `wire::frame_store`; `scripts/firmware` packs
-//! one with `roadvo pack`, loads it into QEMU's PSRAM and compares what this firmware logs with
-//! the host's run, bit for bit). Each estimate goes out through defmt over semihosting, and
-//! again through the core's heading smoother as the configuration's `smooth_lag_frames` says;
-//! QEMU exits with 0 when the drive is done and 1 on any error (a panic included).
+//! The camera is stood in for by a recorded drive in the board's frame memory (the core's
+//! `wire::frame_store`; `scripts/firmware` packs one with `roadvo pack`, loads it into QEMU's
+//! PSRAM and compares what this firmware logs with the host's run, bit for bit). The drive must
+//! have been packed with this firmware's configuration. Each estimate goes out through defmt
+//! over semihosting, and again through the core's heading smoother as the configuration's
+//! `smooth_lag_frames` says; QEMU exits with 0 when the drive is done and 1 on any error (a
+//! refused configuration, a panic included).
 #![no_std]
 #![no_main]
 
 mod log;
 mod stack;
 
+/// The configuration: `pub const CONFIG: roadvo::Config`, from the file the build's
+/// `ROADVO_CONFIG_RS` names (`roadvo export-config MOUNT --rust`), else `src/default_config.rs`
+/// (see `build.rs`).
+mod config {
+    include!(concat!(env!("OUT_DIR"), "/config.rs"));
+}
+
 use cortex_m_rt::entry;
 use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
 use roadvo::wire::frame_store::{FrameStore, StoreError};
-use roadvo::wire::trace;
+use roadvo::wire::{config_words, trace};
 use roadvo::{ConfigError, Estimate, FrameError, Method, Odometer, Smoother, SmootherError};
 
 /// Why the replay stopped.
@@ -24,8 +33,11 @@ use roadvo::{ConfigError, Estimate, FrameError, Method, Odometer, Smoother, Smoo
 enum Error {
     /// The frame memory holds no usable drive.
     Store(StoreError),
-    /// The drive's camera and mount do not make a valid configuration.
+    /// The configuration compiled in is refused.
     Config(ConfigError),
+    /// The drive in the frame memory was packed with another configuration than this
+    /// firmware's.
+    OtherConfig,
     /// The stored rows do not cover the rows the odometer reads.
     RowsMissing {
         /// First row the odometer reads.
@@ -97,24 +109,50 @@ pub extern "C" fn roadvo_frame_end() {
     core::hint::black_box(2u32);
 }
 
-/// Configures `odometer` with the drive's configuration, once at start-up.
-fn configure(odometer: &mut Odometer, store: &FrameStore) -> Result<(), Error> {
-    let config = store.header().config.validate()?;
-    let rows = config.rows_read();
+/// Validates the configuration compiled in and gives it to `odometer`, once at boot. Not inlined:
+/// validation's temporaries (the homographies in f64) then share no stack frame with `process`.
+#[inline(never)]
+fn boot(odometer: &mut Odometer) -> Result<(), Error> {
+    let config = config::CONFIG.validate()?;
+    odometer.configure(config)?;
+    Ok(())
+}
+
+/// Checks that the drive in the frame memory was packed with the odometer's configuration and
+/// holds the rows it reads.
+fn check_drive(odometer: &Odometer, store: &FrameStore) -> Result<(), Error> {
+    let ours = config_words(odometer.config().config());
+    if config_words(&store.header().config) != ours {
+        return Err(Error::OtherConfig);
+    }
+    let rows = odometer.config().rows_read();
     if !store.holds_rows(rows.clone()) {
         return Err(Error::RowsMissing {
             first: rows.start,
             end: rows.end,
         });
     }
-    odometer.configure(config)?;
     Ok(())
+}
+
+/// One frame through the odometer, between the instruction counter's markers. Not inlined, so
+/// that its stack frame is its own.
+#[inline(never)]
+fn step(
+    odometer: &mut Odometer,
+    frame: &roadvo::wire::frame_store::BandFrame,
+    timestamp: roadvo::Instant,
+) -> Result<Estimate, FrameError> {
+    roadvo_frame_begin();
+    let estimate = odometer.process(frame, timestamp);
+    roadvo_frame_end();
+    estimate
 }
 
 /// Replays the drive in the frame memory through `odometer`, logging every estimate.
 fn replay(odometer: &mut Odometer) -> Result<(), Error> {
     let store = FrameStore::open(camera_memory())?;
-    configure(odometer, &store)?;
+    check_drive(odometer, &store)?;
     let rows = odometer.config().rows_read();
     let camera = odometer.config().config().camera;
     defmt::println!(
@@ -138,10 +176,7 @@ fn replay(odometer: &mut Odometer) -> Result<(), Error> {
         let Some((frame, timestamp)) = store.frame(index) else {
             return Err(StoreError::Truncated.into());
         };
-        roadvo_frame_begin();
-        let estimate = odometer.process(&frame, timestamp);
-        roadvo_frame_end();
-        let e = estimate.map_err(|error| Error::Frame { index, error })?;
+        let e = step(odometer, &frame, timestamp).map_err(|error| Error::Frame { index, error })?;
         log_estimate("estimate", index, &e);
         defmt::debug!("{}", e);
         if let Some(s) = smoother.push(e, timestamp).filter(|_| lag > 0) {
@@ -191,12 +226,18 @@ fn main() -> ! {
     // cortex-m-rt hands this to `main` alone as a `&'static mut`. Every byte of it is zero, so it
     // sits in .bss: no flash, no copy at reset, and never built on the stack.
     static mut ODOMETER: Odometer = Odometer::UNCONFIGURED;
-    let status = match replay(ODOMETER) {
-        Ok(()) => EXIT_SUCCESS,
+    let status = match boot(ODOMETER) {
         Err(e) => {
-            defmt::error!("replay stopped: {}", e);
+            defmt::error!("configuration refused at boot: {}", e);
             EXIT_FAILURE
         }
+        Ok(()) => match replay(ODOMETER) {
+            Ok(()) => EXIT_SUCCESS,
+            Err(e) => {
+                defmt::error!("replay stopped: {}", e);
+                EXIT_FAILURE
+            }
+        },
     };
     defmt::println!(
         "stack high-water mark {=usize} bytes",

@@ -22,25 +22,39 @@ pub struct Packed {
     pub bytes: usize,
 }
 
-/// Writes the first `frames` frames of `seq` (all if `None`) with the configuration of `mount`
-/// (its method replaced by `method` if given) to `out`; `progress` hears of each frame.
+/// How many frames to pack.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Limit {
+    /// Frames from the start of the sequence (`None`: all).
+    pub frames: Option<usize>,
+    /// The store's size, bytes: as many frames as fit in a frame memory of this size (`None`:
+    /// no limit).
+    pub bytes: Option<usize>,
+}
+
+/// Writes the first frames of `seq`, as many as `limit` allows, with the configuration of
+/// `mount` (its method replaced by `method` if given) to `out`; `progress` hears of each frame.
 pub fn pack(
     seq: &Sequence,
     mount: &MountFile,
     method: Option<Method>,
-    frames: Option<usize>,
+    limit: Limit,
     out: &Path,
     mut progress: impl FnMut(),
 ) -> Result<Packed> {
     let config = config_for(seq, mount, method)?;
     let rows = config.rows_read();
-    let n = frames.unwrap_or(seq.frames).min(seq.frames);
-    let header = Header {
+    let mut header = Header {
         config: *config.config(),
         first_row: rows.start,
         rows: rows.end - rows.start,
-        frames: u32::try_from(n).context("too many frames for a frame store")?,
+        frames: 0,
     };
+    let fit = limit.bytes.map_or(usize::MAX, |b| {
+        b.saturating_sub(HEADER_BYTES) / header.frame_bytes()
+    });
+    let n = limit.frames.unwrap_or(seq.frames).min(seq.frames).min(fit);
+    header.frames = u32::try_from(n).context("too many frames for a frame store")?;
     let file =
         std::fs::File::create(out).with_context(|| format!("cannot create {}", out.display()))?;
     let mut w = std::io::BufWriter::new(file);

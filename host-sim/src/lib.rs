@@ -7,6 +7,7 @@
 
 pub mod calibrate;
 pub mod eval;
+pub mod export;
 pub mod frame_store;
 pub mod kitti;
 pub mod mount;

@@ -113,7 +113,7 @@ impl<const N: usize, const F: usize, const GRID: usize, const K: usize> Estimato
         match cfg.settings().method {
             Method::PitchVote => {
                 if !matches!(self, Self::PitchVote(_)) {
-                    *self = Self::PitchVote(PitchVote::ZERO);
+                    self.become_pitch_vote();
                 }
                 if let Self::PitchVote(pv) = self {
                     pv.configure(cfg);
@@ -121,10 +121,28 @@ impl<const N: usize, const F: usize, const GRID: usize, const K: usize> Estimato
             }
             Method::Paper => {
                 if !matches!(self, Self::Paper(_)) {
-                    *self = Self::Paper(Paper::ZERO);
+                    self.become_paper();
                 }
             }
         }
+    }
+
+    /// Switches to the pitch vote, every bit zero. Out of line, as [`Self::become_paper`].
+    #[cold]
+    #[inline(never)]
+    fn become_pitch_vote(&mut self) {
+        // The constant, all zeros, is written in place (a memset), not built on the stack.
+        *self = Self::ZERO;
+    }
+
+    /// Switches to the paper's method. Out of line: the new value is built on the stack
+    /// (16 KB with the default capacities) before it is moved in, and inlined into
+    /// `configure` that frame would count against every configuration's stack, a firmware's
+    /// at boot among them, not only a switch's.
+    #[cold]
+    #[inline(never)]
+    fn become_paper(&mut self) {
+        *self = Self::Paper(Paper::ZERO);
     }
 
     /// Forgets every frame.

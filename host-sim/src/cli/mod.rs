@@ -5,6 +5,7 @@ mod bench;
 mod calibrate;
 mod demo;
 mod eval;
+mod export;
 mod pack;
 mod run;
 mod sensitivity;
@@ -47,6 +48,9 @@ pub enum Command {
     /// Pack a sequence into the firmware example's frame store (the configuration and the rows
     /// the odometer reads).
     Pack(pack::PackArgs),
+    /// Write a mount file's whole configuration as a Rust `const` or a C array for a firmware
+    /// (checked as `run` checks it).
+    ExportConfig(export::ExportArgs),
     /// Time the odometry alone on a sequence: frames preloaded, one thread, both methods.
     Bench(bench::BenchArgs),
     /// The paper's sensitivity study on the s-course: +1 deg of roll, pitch, yaw and +10 cm of
@@ -65,6 +69,7 @@ impl Command {
             Self::Run(a) => a.run(),
             Self::Calibrate(a) => a.run(),
             Self::Pack(a) => a.run(),
+            Self::ExportConfig(a) => a.run(),
             Self::Bench(a) => a.run(),
             Self::Sensitivity(a) => a.run(),
             Self::Demo(a) => a.run(),

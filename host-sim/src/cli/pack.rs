@@ -2,7 +2,7 @@
 
 use super::{SequenceArgs, bar};
 use anyhow::Result;
-use roadvo_sim::frame_store::pack;
+use roadvo_sim::frame_store::{Limit, pack};
 use std::path::PathBuf;
 
 /// Pack a sequence into the firmware example's frame store.
@@ -16,6 +16,10 @@ pub struct PackArgs {
     /// Frames from the start of the sequence (default: all).
     #[arg(long)]
     frames: Option<usize>,
+    /// At most this many bytes: as many frames as a frame memory of this size holds (e.g.
+    /// 16777216 for the firmware example's board).
+    #[arg(long)]
+    max_bytes: Option<usize>,
 }
 
 impl PackArgs {
@@ -23,14 +27,13 @@ impl PackArgs {
         let (seq, mount) = self.seq.open()?;
         let n = self.frames.unwrap_or(seq.frames).min(seq.frames);
         let progress = bar(n, "packing", "frames");
-        let packed = pack(
-            &seq,
-            &mount,
-            self.seq.method,
-            self.frames,
-            &self.out,
-            || progress.inc(1),
-        )?;
+        let limit = Limit {
+            frames: self.frames,
+            bytes: self.max_bytes,
+        };
+        let packed = pack(&seq, &mount, self.seq.method, limit, &self.out, || {
+            progress.inc(1)
+        })?;
         progress.finish_and_clear();
         println!(
             "{} frames, rows {}..{} of each, {} bytes written to {}",
