@@ -20,7 +20,7 @@
 //! };
 //! let mount = Mount { x_m: 1.2, height_m: 1.65, ..Mount::DEFAULT };
 //! let config = Config::with_defaults(camera, mount).validate()?;
-//! // All state in one value (docs/firmware.md gives its size).
+//! // All state in one value (the README's results give its size).
 //! let mut odometer: Odometer = Odometer::new(config)?;
 //! let pixels = vec![0u8; 1241 * 376]; // a camera buffer
 //! let frame = SliceFrame::new(&pixels, 1241, 376, 1241).expect("buffer holds the frame");

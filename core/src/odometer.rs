@@ -152,7 +152,7 @@ const STEADY_SPEED_S: f32 = 1.0;
 /// - `GRID`: bins per axis of the vote (default 64: 0.03 deg by 0.94 cm for the default window);
 ///   3 to 255.
 ///
-/// `core::mem::size_of::<Odometer>()` is its whole RAM cost (`docs/firmware.md` gives it for the
+/// `core::mem::size_of::<Odometer>()` is its whole RAM cost (the README's results give it for the
 /// default capacities; a test holds it to a budget).
 #[derive(Clone, Debug)]
 pub struct Odometer<

@@ -1,23 +1,18 @@
 //! A fixed-lag smoother of the heading: each frame's heading change is refitted with the `lag`
 //! frames on either side of it, so that the trajectory comes out `lag` frames late.
 //!
-//! A frame's heading change is a measurement whose noise grows fast as its vote's support
-//! falls: on KITTI 02 and 05 (`scripts/turns`), frames that matched 10-19 tracks err by 0.17-0.23
-//! deg rms, those that matched 40-49 by 0.03-0.04, about as the matches to the power -1.7, a
-//! variance to the power -3.4. So each frame's turn rate is refitted by weighted least squares
-//! to a straight line in time through its neighbours, each weighing its matches to the fourth
-//! power (about the inverse of its variance; fallback and start-up frames weigh nothing): a
-//! frame on few tracks between frames on many takes their line, a well supported frame keeps
-//! its own, and a bend's entry or exit, linear in time, passes through unchanged. The distance
-//! is left alone: its errors last for many frames (the body's pitch), which no short window
-//! averages out.
+//! A frame's heading error grows fast as its vote's support falls, so each frame's turn rate is
+//! refitted by weighted least squares to a straight line in time through its neighbours, each
+//! weighing its matched tracks to the fourth power (about the inverse of its variance; fallback
+//! and start-up frames weigh nothing): a weak frame between strong ones takes their line, a strong
+//! one keeps its own, and a bend's entry or exit, linear in time, passes through unchanged. The
+//! distance is left alone: its errors last longer than any short window. The figures behind it:
+//! `docs/method.md`, "The heading smoother".
 //!
-//! The smoothed trajectory is integrated from the smoothed steps: a step keeps its length and
-//! its chord turns by half the change of its heading change, as an arc's does. The odometer's
-//! own estimate is unaffected; the smoother only reads the estimates it is given.
-//!
-//! Storage is caller-sized, as elsewhere: `Smoother<N>` holds `N` frames, enough for a lag of
-//! `(N - 1) / 2`.
+//! The smoothed trajectory is integrated from the smoothed steps: a step keeps its length and its
+//! chord turns by half the change of its heading change, as an arc's does. The odometer's own
+//! estimate is unaffected. Storage is caller-sized: `Smoother<N>` holds `N` frames, enough for a
+//! lag of `(N - 1) / 2`.
 
 use crate::motion::{Motion, Pose2};
 use crate::odometer::Estimate;

@@ -251,8 +251,8 @@ impl<const GRID: usize> VoteGrid<GRID> {
     /// The highest bin, the votes in the 3x3 bins around it (the score), and the centre of
     /// gravity of a 3x3-bin square that is moved onto its own centre of gravity (eight
     /// mean-shift steps, bins counted by the share of them inside the square). Starting from the
-    /// highest bin alone would lean towards the lower index whenever two bins tie (measured: a
-    /// -0.015 deg heading bias per frame on a straight road). `None` when the grid is empty.
+    /// highest bin alone would lean towards the lower index whenever two bins tie, a heading
+    /// bias on a straight road (`docs/experiments.md`, "The vote"). `None` when the grid is empty.
     pub fn peak(&self) -> Option<Peak> {
         let (mut best, mut at) = (0u16, (0usize, 0usize));
         for (i, row) in self.cells.iter().enumerate() {

@@ -1,23 +1,16 @@
 //! `roadvo calibrate`: refines the camera mount (pitch, yaw, roll, height, distance ahead of the
-//! rear axle) so that the odometry over a section with ground truth matches it. The paper's §3
-//! does this by hand on its calibration course and leaves automating it as future work.
+//! rear axle) so that the odometry over a section with ground truth matches it, as the paper's §3
+//! does by hand.
 //!
-//! The cost of a mount is the short-segment KITTI metric (segments of 10..50 m, see
-//! [`crate::eval`]; or, with [`Metric::Kitti`], the KITTI metric itself, segments of 100..800 m,
-//! for a section long enough) of the odometry over the section against the ground truth:
-//! translation error in percent plus rotation error in hundredths of a degree per metre, so that
-//! 1 % and 0.01 deg/m weigh the same, averaged over runs with the mount's height moved by -2..+2 mm
-//! ([`HEIGHT_SPREAD_MM`]): on real frames the vote often decides between near-equal peaks, so a
-//! single run is one draw, and a search on single runs follows the draws (calibrated that way on
-//! KITTI 05, a mount scored worse on every sequence's `scripts/kitti-spread`, 05 included).
-//! The odometry is not smooth in the mount (votes move between bins),
-//! so the search is a pattern search, not a gradient one: each parameter in turn is stepped up
-//! and down, the best improvement is kept, and all steps halve when a sweep improves nothing.
-//! Each parameter acts differently (paper §3): pitch and height scale distances, yaw biases
-//! rotation everywhere, roll biases it on straights, the longitudinal offset splits a turn
-//! between rotation and sideways motion. Some act alike on some roads: on a straight, a yaw
-//! error and a roll error of a camera pitched down both turn the odometry, and only bends tell
-//! them apart, so a section with bends calibrates better than a straight one.
+//! A mount's cost is the 10..50 m metric of the odometry over the section against the ground truth
+//! (or, with [`Metric::Kitti`], KITTI's 100..800 m metric): translation in percent plus rotation in
+//! hundredths of a degree per metre, averaged over runs at heights -2..+2 mm
+//! ([`HEIGHT_SPREAD_MM`]), since on real frames one run is one draw between near-equal vote peaks.
+//! The odometry is not smooth in the mount, so the search is a pattern search: each parameter in
+//! turn stepped up and down, the best improvement kept, every step halved when a sweep improves
+//! nothing. Pitch and height scale distances, yaw biases rotation, roll biases it on straights, the
+//! offset splits a turn between rotation and sideways motion; on a straight a yaw and a roll error
+//! act alike, so a section with bends calibrates better (`docs/experiments.md`, "KITTI's mount").
 
 use crate::eval::evaluate;
 use crate::kitti::{Pose, Sequence};

@@ -6,20 +6,11 @@
 //! segment is `E = (P'_first^-1 P'_last)^-1 (P_first^-1 P_last)`; its translation norm and
 //! rotation angle, divided by the segment length, are pooled over all segments.
 //!
-//! A monocular method's error is often mostly one of scale (a mount height or pitch slightly
-//! off makes every distance a few percent short), which its users correct before comparing
-//! shapes; so the report also gives the ratio of the estimated path length to the true one, and
-//! the translation errors with the estimate's positions divided by that ratio (not KITTI
-//! figures: the KITTI metric takes the estimate as it is).
-//!
-//! A planar method cannot follow the road's climb, so [`evaluate_planar`] also scores both
-//! trajectories in the ground plane only (camera-0 positions in x-z and heading about the
-//! vertical), and reports the planar floor: what the ground truth's own planar motion scores on
-//! the 3D metric, the first camera taken as level. That is the floor of a planar estimate in
-//! that plane only. An estimate whose first camera looks down at its ground plane or is rolled
-//! against it (a mount's pitch and roll) moves in another plane and turns about another axis,
-//! and the 3D metric weighs the two differently: its floor is the ground truth's motion in its
-//! own plane, reported beside ([`OwnPlaneFloor`]).
+//! Beside it, not KITTI figures: the estimated path length over the true one and the translation
+//! errors at the true scale (a monocular error is often mostly scale); and with [`evaluate_planar`]
+//! the same metric in the ground plane with two planar floors, the ground truth's own planar motion
+//! scored with the first camera level and in the estimate's own ground plane ([`OwnPlaneFloor`]).
+//! Which floor a figure answers to: `docs/method.md`, "Measuring".
 
 use crate::kitti::Pose;
 use anyhow::{Result, bail};

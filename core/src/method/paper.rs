@@ -1,26 +1,15 @@
-//! The paper's method (§2.2 and §2.3) as written, kept reproducible for comparison.
+//! The paper's method (§2.2 and §2.3) as written, kept reproducible for comparison: each corner's
+//! observation quadrilateral under the four extremal body attitudes
+//! ([`GroundProjection::observe`](crate::projection::GroundProjection::observe)), each track's
+//! prediction quadrilateral over the patch of plausible motions (the previous motion +- the
+//! dynamics limits), matching where the two overlap (the patch doubling, up to `MAX_WIDEN`
+//! times, while too few match), a `GRID x GRID` vote over the patch, and the centre of gravity of
+//! the bins holding at least 70% of the highest count (`docs/method.md`, "The paper's method").
 //!
-//! 1. **Observation regions.** Each corner backprojects under the four extremal body attitudes
-//!    into a quadrilateral on the ground ([`GroundProjection::observe`](crate::projection::GroundProjection::observe)).
-//! 2. **Prediction regions.** The plausible motions form a patch: the previous motion +- the
-//!    dynamics limits times the frame interval squared (10 deg/s^2 and 1.5 m/s^2 by default).
-//!    Each track moved by the patch's four corner motions gives its prediction quadrilateral.
-//! 3. **Matching.** A track and an observation match where their quadrilaterals overlap
-//!    (separating-axis test). With fewer matched tracks than `min_inlier_ratio` of the detected
-//!    features, the patch doubles, up to `MAX_WIDEN` times.
-//! 4. **Vote.** A `GRID x GRID` accumulator over the patch. Each matched track votes once for
-//!    every bin whose motion moves it inside one of its overlapping observation regions. The
-//!    motion-to-position map is affine to well under a millimetre over the patch, so each
-//!    observation region is mapped into bin coordinates and filled row by row.
-//! 5. **Estimate.** The centre of gravity of the bins holding at least 70% of the highest count.
-//!
-//! Open points the paper leaves, decided here:
-//! - *Start-up*: with no previous motion the patch is heading +-2 deg and distance 0 to 2.6 m per
-//!   frame (BRIEF §7's start-up window; its own constants, so that tuning the default method's
-//!   start-up leaves this method's results as they were).
-//! - *Several overlapping observations*: a matched track takes the centroid of the overlapping
-//!   observation region whose centroid lies nearest its prediction under the estimate.
-//! - *Grid*: the odometer's `GRID` (64): finer than the paper's noise, so the bins do not limit it.
+//! Open points the paper leaves, decided here: at start-up the patch is heading +-2 deg by 0 to
+//! 2.6 m a frame (constants of its own, so that tuning the pitch vote leaves this method alone); a
+//! track with several overlapping observations takes the one whose centroid lies nearest its
+//! prediction; the grid is the odometer's `GRID`, finer than the paper's noise.
 
 use super::{Frame, Outcome};
 use crate::config::ValidConfig;

@@ -1,46 +1,16 @@
 //! Corners that move with the vehicle: a vehicle ahead at our speed, dirt on the lens, the
-//! bonnet in the picture. They stand still in the image while the road under them moves.
+//! bonnet in the picture. They stand still in the image while the road under them moves, and
+//! under a pitch hypothesis a little off, a vehicle's corners (above the road, so backprojected
+//! far away) line up with motions slower or sharper than ours: where it hides most of the ground
+//! window they outvote the road's few and walk the estimate towards a stop or out of a bend.
 //!
-//! A vehicle driving ahead at our speed stands still in the image, and under a pitch hypothesis
-//! a few tenths of a degree off its corners (above the road, so backprojected far away) line up
-//! with motions slower or sharper than ours. Where it hides most of the ground window its
-//! corners outvote the road's few and can walk the estimate towards a stop, or out of a bend
-//! (the default method's weighing only slows the walk). But they betray themselves before any
-//! vote: each is found again in the next frame at nearly the same place in the image, all of
-//! them displaced alike by the change of the body's pitch and roll, where a point on the road
-//! would have moved by many pixels.
-//!
-//! Per frame, with a predicted motion:
-//! 1. Each corner's displacement from the nearest corner of the previous frame, if under
-//!    [`REACH_PX`] in both axes, goes into a histogram of whole pixels (the nearest only, so
-//!    that a dense patch of the road's corners, each near several of the last frame's, cannot
-//!    fill a bin by itself). A roll of the body turns the image about the principal point,
-//!    which displaces a still object's corners unlike each other (by 4.7 pixels 300 pixels
-//!    apart for 0.9 deg, the kitti-like suspension's largest change a frame), so the previous
-//!    corners are first turned by each of a few roll changes ([`ROLL_STEPS`] each way by
-//!    [`ROLL_STEP_RAD`]), and the roll whose histogram has the fullest 3x3 bins wins. Those
-//!    bins are the frame's common displacement, if they hold at least [`MIN_CORNERS`]. (The
-//!    turned corners are sorted by column, so that a corner finds those within reach by
-//!    bisection rather than by trying all of them: 19.9 M to 18.8 M instructions a frame on
-//!    KITTI 05, the same estimates bit for bit.)
-//! 2. A corner is *still* when some previous corner lies at a displacement in those bins from
-//!    it (any, not only the nearest: along a vehicle's edge the nearest is often the edge's
-//!    next corner) where a point on the road at its pixel would not have gone: at least
-//!    [`MIN_FLOW_PX`] from its predicted image motion. That spares the road's own corners when
-//!    their displacement happens to be the common one (a band of them at one range, all moving
-//!    alike): theirs is what the road would do.
-//! 3. A still corner moves with us, and is left out of the vote, the matches and the new
-//!    tracks, when the previous corner it came from was still too, or at once when at least
-//!    [`MIN_CORNERS_AT_ONCE`] corners share the common displacement. Among the road's corners a
-//!    neighbour at the common displacement is a coincidence that seldom repeats two frames
-//!    running; a vehicle cutting in is still from its second frame, and waiting for its third
-//!    let it pull the heading of a bend to zero in the frame between (measured on the
-//!    kitti-like traffic drives).
-//!
-//! A hidden corner still counts as detected, so the inlier ratio shows what it hid. Standing
-//! still ourselves, or before the first motion, nothing is set aside. On the kitti-like drive of
-//! seed 1 (`features_comoving` in `roadvo run --quality`): 237 corners set aside in the 20
-//! frames the car drives ahead, 9 in the 400 frames of the same drive without it.
+//! They betray themselves before any vote. Per frame, with a predicted motion: each corner's
+//! displacement from the nearest corner of the previous frame (those turned by each of a few roll
+//! changes of the body) goes into a histogram, whose fullest 3x3 bins are the frame's common
+//! displacement; a corner found at it where a point on the road would not have gone is *still*;
+//! a still corner whose previous corner was still too, or one of [`MIN_CORNERS_AT_ONCE`] at once,
+//! is set aside: no vote, no match, no new track, but still counted as detected. The steps and
+//! their reasons: `docs/method.md`, "Corners that move with the vehicle".
 
 use crate::harris::Corners;
 use crate::projection::Pixel;

@@ -38,10 +38,9 @@ pub fn trig(alpha: f32) -> Trig {
 
 /// A vote's weight from where the pair falls in its lateral tent and, if it has one, its
 /// distance tent (each 1 at the centre, 0 at the edge). Both stand on a pedestal of 1: a pair
-/// at a tent's edge still counts. Without the distance pedestal a wide tent's votes would add
-/// up to no more than a narrow one's, and the vote would run a third faster, but it measured
-/// a lock on zero motion on KITTI 05 (one run in seven ended 27% out: after a slow sharp turn
-/// the estimate slid to a stop and random pairs near zero distance held it there).
+/// at a tent's edge still counts, and a wide tent's votes add up to more than a narrow one's:
+/// without the pedestal along the distance, random pairs near zero distance could hold the
+/// estimate at a stop (`docs/experiments.md`, "The vote").
 fn tent_weight(lateral: f32, along: Option<f32>) -> u8 {
     // At most (1 + 8)^2 = 81: fits a byte.
     ((1.0 + VOTE_WEIGHT * lateral) * along.map_or(1.0, |a| 1.0 + VOTE_WEIGHT * a)) as u8
