@@ -3,7 +3,7 @@
 roadvo's source files through the ELF's line tables (inlined code included: each address is put
 down to the innermost roadvo source file of its inline chain), then to the method's stages.
 
-Usage: firmware-profile.py ELF PROFILE. Prints one line: detection, vote, rest, in % of all
+Usage: firmware-profile.py ELF PROFILE. Prints one line: ground corners, the image heading, the vote, the rest, in % of all
 instructions the run executed (the frames are nearly all of it: the boot and the log lines are
 well under 1 %)."""
 import collections
@@ -42,6 +42,8 @@ def stage(chain):
         path = loc[len(ours):].split(":")[0]
         if path == "harris.rs":
             return "detection", path
+        if path.startswith("heading/"):
+            return "heading", path
         if path == "vote.rs" or path.startswith("method/"):
             return "vote", path
         return "rest", path
@@ -56,7 +58,9 @@ for a, n in counts.items():
     by_stage[s] += n
     by_file[f] += n
 pct = lambda n: 100.0 * n / max(total, 1)
-print("where the instructions go: detection (harris.rs) {:.1f} %, vote (vote.rs, method/) {:.1f} %, "
-      "rest {:.1f} %".format(pct(by_stage["detection"]), pct(by_stage["vote"]), pct(by_stage["rest"])))
+print("where the instructions go: ground corners (harris.rs) {:.1f} %, image heading (heading/) "
+      "{:.1f} %, vote (vote.rs, method/) {:.1f} %, rest {:.1f} %".format(
+          pct(by_stage["detection"]), pct(by_stage["heading"]), pct(by_stage["vote"]),
+          pct(by_stage["rest"])))
 top = ", ".join("{} {:.1f} %".format(f, pct(n)) for f, n in by_file.most_common(6))
 print("  by file: " + top)

@@ -13,7 +13,7 @@
 
 // Words of a configuration ([`roadvo_configure`]): the camera's, the mount's and the odometer
 // settings', each in the core's order (`roadvo::wire::config_words`).
-#define ROADVO_CONFIG_WORDS 43
+#define ROADVO_CONFIG_WORDS 53
 
 // Words of an estimate's trace record ([`roadvo_trace_record`]): what the firmware examples
 // print and the host's `roadvo run --trace` writes, compared bit for bit.
@@ -21,12 +21,12 @@
 
 #if defined(__arm__)
 // Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 32-bit Arm target.
-#define ROADVO_ODOMETER_SIZE 34216
+#define ROADVO_ODOMETER_SIZE 57544
 #endif
 
 #if defined(__x86_64__)
 // Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 64-bit host.
-#define ROADVO_ODOMETER_SIZE 34312
+#define ROADVO_ODOMETER_SIZE 57648
 #endif
 
 // Alignment of an odometer's storage, bytes.
@@ -152,6 +152,14 @@ typedef struct RoadvoEstimate {
   float pitch_rad;
   // Body roll the vote settled on, radians.
   float roll_rad;
+  // Corners found over the whole image (heading stage).
+  uint16_t image_corners;
+  // Of them, paired with the last frame's.
+  uint16_t image_matches;
+  // Pairs the image's motion holds.
+  uint16_t image_inliers;
+  // The heading change is the whole image's, not the ground window's.
+  bool image_heading;
 } RoadvoEstimate;
 
 #ifdef __cplusplus

@@ -31,7 +31,7 @@ use roadvo::{
 
 /// Words of a configuration ([`roadvo_configure`]): the camera's, the mount's and the odometer
 /// settings', each in the core's order (`roadvo::wire::config_words`).
-pub const ROADVO_CONFIG_WORDS: usize = 43;
+pub const ROADVO_CONFIG_WORDS: usize = 53;
 
 /// Words of an estimate's trace record ([`roadvo_trace_record`]): what the firmware examples
 /// print and the host's `roadvo run --trace` writes, compared bit for bit.
@@ -39,10 +39,10 @@ pub const ROADVO_TRACE_WORDS: usize = 11;
 
 /// Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 32-bit Arm target.
 #[cfg(target_arch = "arm")]
-pub const ROADVO_ODOMETER_SIZE: usize = 34_216;
+pub const ROADVO_ODOMETER_SIZE: usize = 57_544;
 /// Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 64-bit host.
 #[cfg(target_arch = "x86_64")]
-pub const ROADVO_ODOMETER_SIZE: usize = 34_312;
+pub const ROADVO_ODOMETER_SIZE: usize = 57_648;
 
 /// Alignment of an odometer's storage, bytes.
 pub const ROADVO_ODOMETER_ALIGN: usize = 8;
@@ -323,6 +323,14 @@ pub struct RoadvoEstimate {
     pub pitch_rad: f32,
     /// Body roll the vote settled on, radians.
     pub roll_rad: f32,
+    /// Corners found over the whole image (heading stage).
+    pub image_corners: u16,
+    /// Of them, paired with the last frame's.
+    pub image_matches: u16,
+    /// Pairs the image's motion holds.
+    pub image_inliers: u16,
+    /// The heading change is the whole image's, not the ground window's.
+    pub image_heading: bool,
 }
 
 impl From<&Estimate> for RoadvoEstimate {
@@ -345,6 +353,10 @@ impl From<&Estimate> for RoadvoEstimate {
             vote_peak: q.vote_peak,
             pitch_rad: q.pitch_rad,
             roll_rad: q.roll_rad,
+            image_corners: q.image_corners,
+            image_matches: q.image_matches,
+            image_inliers: q.image_inliers,
+            image_heading: q.image_heading,
         }
     }
 }
@@ -373,6 +385,10 @@ impl From<&RoadvoEstimate> for Estimate {
                 roll_rad: e.roll_rad,
                 tracks_refused: e.tracks_refused,
                 features_comoving: e.features_comoving,
+                image_corners: e.image_corners,
+                image_matches: e.image_matches,
+                image_inliers: e.image_inliers,
+                image_heading: e.image_heading,
             },
         }
     }

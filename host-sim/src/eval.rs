@@ -130,6 +130,58 @@ pub fn planar_pose(p: &Pose) -> Pose {
     [c, 0.0, s, p[3], 0.0, 1.0, 0.0, 0.0, -s, 0.0, c, p[11]]
 }
 
+/// Per-frame heading-change errors of an odometer's own estimates against the ground truth.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct HeadingChangeErrors {
+    /// Frames compared (all but the first).
+    pub frames: usize,
+    /// Root mean square of the error, degrees a frame.
+    pub rms_deg: f64,
+    /// Mean error (estimate minus truth), degrees a frame.
+    pub mean_deg: f64,
+}
+
+/// The true heading change into each frame `i >= 1`: the vehicle's turn about its own vertical,
+/// the ground truth's camera rotation from frame `i - 1` to `i` seen through
+/// `vehicle_from_camera` (the mount's rotation, body level), radians counter-clockwise.
+pub fn true_heading_changes_rad(gt: &[Pose], vehicle_from_camera: &Matrix3<f64>) -> Vec<f64> {
+    let rotation = |p: &Pose| Matrix3::new(p[0], p[1], p[2], p[4], p[5], p[6], p[8], p[9], p[10]);
+    gt.windows(2)
+        .map(|w| {
+            let rel = rotation(&w[0]).transpose() * rotation(&w[1]);
+            let q = vehicle_from_camera * rel * vehicle_from_camera.transpose();
+            q[(1, 0)].atan2(q[(0, 0)])
+        })
+        .collect()
+}
+
+/// [`HeadingChangeErrors`] of `estimated_rad` (the heading change of each frame, the first
+/// frame's ignored) against [`true_heading_changes_rad`].
+pub fn heading_change_errors(
+    gt: &[Pose],
+    estimated_rad: &[f64],
+    vehicle_from_camera: &Matrix3<f64>,
+) -> Result<HeadingChangeErrors> {
+    if gt.len() != estimated_rad.len() || gt.len() < 2 {
+        bail!(
+            "{} ground-truth poses for {} estimates: need as many, and two or more",
+            gt.len(),
+            estimated_rad.len()
+        );
+    }
+    let errors: Vec<f64> = true_heading_changes_rad(gt, vehicle_from_camera)
+        .iter()
+        .zip(&estimated_rad[1..])
+        .map(|(t, e)| (e - t).to_degrees())
+        .collect();
+    let n = errors.len() as f64;
+    Ok(HeadingChangeErrors {
+        frames: errors.len(),
+        rms_deg: (errors.iter().map(|e| e * e).sum::<f64>() / n).sqrt(),
+        mean_deg: errors.iter().sum::<f64>() / n,
+    })
+}
+
 /// [`evaluate`], plus the same metric in the ground plane only and the planar floors, level and
 /// in the estimate's own plane.
 pub fn evaluate_planar(gt: &[Pose], est: &[Pose]) -> Result<Report> {
@@ -451,6 +503,52 @@ mod tests {
 
     fn straight(n: usize, step: f64) -> Vec<Pose> {
         (0..n).map(|i| planar(i as f64 * step, 0.0, 0.0)).collect()
+    }
+
+    #[test]
+    fn heading_changes_are_the_vehicle_s_turns_whatever_the_mount() {
+        // A camera pitched down 10 deg, yawed 2 deg, rolled 1 deg: the camera's own rotation
+        // between frames is not a turn about its y axis, the vehicle's is about its vertical.
+        let mount = roadvo::Mount {
+            pitch_rad: 10f32.to_radians(),
+            yaw_rad: 2f32.to_radians(),
+            roll_rad: 1f32.to_radians(),
+            ..roadvo::Mount::DEFAULT
+        };
+        let m = mount.rotation_vehicle_from_camera(roadvo::Attitude::default());
+        let turns_rad = [0.0, 0.02, -0.05, 0.3];
+        let mut heading = 0.0;
+        let gt: Vec<Pose> = turns_rad
+            .iter()
+            .map(|t| {
+                heading += t;
+                // The first camera's frame is the world's (KITTI's convention).
+                let r = m.transpose() * Rotation3::from_axis_angle(&Vector3::z_axis(), heading) * m;
+                [
+                    r[(0, 0)],
+                    r[(0, 1)],
+                    r[(0, 2)],
+                    0.0,
+                    r[(1, 0)],
+                    r[(1, 1)],
+                    r[(1, 2)],
+                    0.0,
+                    r[(2, 0)],
+                    r[(2, 1)],
+                    r[(2, 2)],
+                    0.0,
+                ]
+            })
+            .collect();
+        let truth = true_heading_changes_rad(&gt, &m);
+        for (got, want) in truth.iter().zip(&turns_rad[1..]) {
+            assert!((got - want).abs() < 1e-12, "{truth:?}");
+        }
+        let off = [0.0, 0.021, -0.051, 0.3];
+        let e = heading_change_errors(&gt, &off, &m).unwrap();
+        assert!(e.mean_deg.abs() < 1e-9, "{e:?}");
+        assert!((e.rms_deg - (2.0f64 / 3.0).sqrt() * 0.001f64.to_degrees()).abs() < 1e-9);
+        assert!(heading_change_errors(&gt, &off[1..], &m).is_err());
     }
 
     #[test]

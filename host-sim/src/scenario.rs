@@ -51,6 +51,8 @@
 //! lateral_m = 0.0            # offset from our lane's centre, metres, positive left
 //! ahead_m = 7.0              # distance ahead of us when it appears
 //! speed_m_s = 2.5            # omitted: keeps its distance to us; negative: oncoming
+//! cross_speed_m_s = 0.0      # across the road, positive to the left (0.0 with speed_m_s = 0.0:
+//!                            # a car crossing at a junction ahead)
 //! appear_s = 10.0
 //! disappear_s = 12.0
 //!
@@ -162,6 +164,10 @@ pub struct Vehicle {
     /// Its speed along the path, m/s; omitted, it keeps its distance to us. Negative: oncoming.
     #[serde(default)]
     pub speed_m_s: Option<f64>,
+    /// Its speed across the road, m/s, positive to the left: `lateral_m` is where it starts.
+    /// The box turns to face the way it goes.
+    #[serde(default)]
+    pub cross_speed_m_s: f64,
     /// Time it appears, seconds.
     #[serde(default)]
     pub appear_s: f64,
@@ -434,7 +440,7 @@ pub struct Scenario {
 pub const BUILT_IN: [&str; 3] = ["s-course", "kitti-like", "town"];
 
 /// The built-in overlays' names: partial scenarios merged over a scenario (`--overlay`).
-pub const BUILT_IN_OVERLAYS: [&str; 3] = ["suspension", "traffic", "slip"];
+pub const BUILT_IN_OVERLAYS: [&str; 4] = ["suspension", "traffic", "slip", "crossing"];
 
 /// Merges `overlay` into `base`: tables merge key by key, arrays of tables (`[[vehicle]]`)
 /// are appended to, anything else is replaced.
@@ -496,6 +502,7 @@ impl Scenario {
                 "suspension" => Some(include_str!("../scenarios/suspension.toml")),
                 "traffic" => Some(include_str!("../scenarios/traffic.toml")),
                 "slip" => Some(include_str!("../scenarios/slip.toml")),
+                "crossing" => Some(include_str!("../scenarios/crossing.toml")),
                 _ => None,
             })?;
             let overlay: toml::Table =
@@ -532,6 +539,9 @@ impl Scenario {
         for (i, v) in self.vehicles.iter().enumerate() {
             if !(v.length_m > 0.0 && v.width_m > 0.0 && v.height_m > 0.0) {
                 bail!("[[vehicle]] {}: sizes must be positive", i + 1);
+            }
+            if !v.cross_speed_m_s.is_finite() {
+                bail!("[[vehicle]] {}: cross_speed_m_s must be finite", i + 1);
             }
         }
         if let Some(slip) = &self.slip

@@ -116,11 +116,12 @@ fn plan(scenario: &Scenario, path: &Path, frames: Option<usize>, seed: u64) -> R
                         None => s + v.ahead_m,
                     };
                     let centre_pose = path.pose_at(along);
-                    let oncoming = v.speed_m_s.is_some_and(|sp| sp < 0.0);
+                    let lateral_m = v.lateral_m + v.cross_speed_m_s * (t - appear_s[i]);
+                    // Facing the way it goes, along the road and across it.
+                    let along_speed = v.speed_m_s.unwrap_or_else(|| speed_at(&scenario.speed, s));
                     BoxState {
-                        centre: centre_pose.to_world(0.0, v.lateral_m),
-                        heading_rad: centre_pose.heading_rad
-                            + if oncoming { std::f64::consts::PI } else { 0.0 },
+                        centre: centre_pose.to_world(0.0, lateral_m),
+                        heading_rad: centre_pose.heading_rad + v.cross_speed_m_s.atan2(along_speed),
                         size: (0.5 * v.length_m, 0.5 * v.width_m, v.height_m),
                         shade: 60.0 + 120.0 * ((i as f64 * 0.618_034 + 0.3) % 1.0),
                     }

@@ -249,7 +249,11 @@ impl<const K: usize> ImageHeading<K> {
         let candidates = self.candidates.as_flattened();
         for (i, p) in self.features.iter().enumerate() {
             let (pu, pv) = (f32::from(p.u), f32::from(p.v));
-            let tried = if p.flow.is_some() { TRIED_TRACKED } else { TRIED };
+            let tried = if p.flow.is_some() {
+                TRIED_TRACKED
+            } else {
+                TRIED
+            };
             let (centre, reach) = match p.flow {
                 Some((du, dv)) => (
                     (
