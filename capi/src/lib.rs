@@ -641,20 +641,7 @@ pub unsafe extern "C" fn roadvo_smoothed(
     estimate: *mut RoadvoEstimate,
 ) -> RoadvoStatus {
     // SAFETY: the contract.
-    let Some(o) = (unsafe { odometer_mut(odometer) }) else {
-        return RoadvoStatus::NullPointer;
-    };
-    if estimate.is_null() {
-        return RoadvoStatus::NullPointer;
-    }
-    match o.smoothed.take() {
-        Some(e) => {
-            // SAFETY: non-NULL and writable (the contract).
-            unsafe { estimate.write(RoadvoEstimate::from(&e)) };
-            RoadvoStatus::Ok
-        }
-        None => RoadvoStatus::Nothing,
-    }
+    unsafe { write_smoothed(odometer, estimate, |o| o.smoothed.take()) }
 }
 
 /// At the end of a drive: writes the next smoothed estimate the smoother still holds to
@@ -668,15 +655,29 @@ pub unsafe extern "C" fn roadvo_flush(
     estimate: *mut RoadvoEstimate,
 ) -> RoadvoStatus {
     // SAFETY: the contract.
+    unsafe { write_smoothed(odometer, estimate, |o| o.smoother.flush()) }
+}
+
+/// Writes what `next` takes of the odometer's smoothed estimates to `*estimate`:
+/// `ROADVO_STATUS_NOTHING` where it takes none.
+///
+/// # Safety
+/// `odometer` as [`roadvo_odometer_init`] set it (or NULL); `estimate` NULL or writable.
+unsafe fn write_smoothed(
+    odometer: *mut RoadvoOdometer,
+    estimate: *mut RoadvoEstimate,
+    next: impl FnOnce(&mut RoadvoOdometer) -> Option<Estimate>,
+) -> RoadvoStatus {
+    // SAFETY: this function's contract.
     let Some(o) = (unsafe { odometer_mut(odometer) }) else {
         return RoadvoStatus::NullPointer;
     };
     if estimate.is_null() {
         return RoadvoStatus::NullPointer;
     }
-    match o.smoother.flush() {
+    match next(o) {
         Some(e) => {
-            // SAFETY: non-NULL and writable (the contract).
+            // SAFETY: non-NULL and writable (this function's contract).
             unsafe { estimate.write(RoadvoEstimate::from(&e)) };
             RoadvoStatus::Ok
         }

@@ -78,6 +78,8 @@ pub mod projection;
 pub mod setting;
 pub mod smoother;
 mod sort;
+#[cfg(test)]
+mod test_rng;
 pub mod time;
 pub mod tracks;
 pub mod vote;

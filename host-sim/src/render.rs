@@ -282,27 +282,9 @@ impl BoxState {
         let ld = [c * d[0] + s * d[1], -s * d[0] + c * d[1], d[2]];
         let (hl, hw, h) = self.size;
         let bounds = [(-hl, hl), (-hw, hw), (CLEARANCE_M, h)];
-        let (mut t0, mut t1, mut axis) = (0.0f64, f64::MAX, 0usize);
-        for k in 0..3 {
-            if ld[k].abs() < 1e-12 {
-                if lo[k] < bounds[k].0 || lo[k] > bounds[k].1 {
-                    return None;
-                }
-                continue;
-            }
-            let (mut a, mut b) = ((bounds[k].0 - lo[k]) / ld[k], (bounds[k].1 - lo[k]) / ld[k]);
-            if a > b {
-                std::mem::swap(&mut a, &mut b);
-            }
-            if a > t0 {
-                t0 = a;
-                axis = k;
-            }
-            t1 = t1.min(b);
-            if t0 > t1 {
-                return None;
-            }
-        }
+        // Starting inside, the front face.
+        let (t0, axis) = slab_entry(lo, ld, bounds)?;
+        let axis = axis.unwrap_or(0);
         let p = [lo[0] + t0 * ld[0], lo[1] + t0 * ld[1], lo[2] + t0 * ld[2]];
         let z = p[2] / h;
         let shade = match axis {
@@ -749,6 +731,34 @@ const SUN_H: [f64; 2] = [0.832_050_294_337_843_2, 0.554_700_196_225_228_8];
 /// Direction the light comes from (unit), for shading curved surfaces.
 const SUN: [f64; 3] = [0.5, 0.333_333_333_333_333_3, 0.8];
 
+/// Where a ray `lo + t ld` (t >= 0) enters the box `bounds` (per axis, low and high), in its
+/// own frame (the slab method): the parameter, and the axis of the face entered (None where it
+/// starts inside); None where it misses.
+fn slab_entry(lo: [f64; 3], ld: [f64; 3], bounds: [(f64, f64); 3]) -> Option<(f64, Option<usize>)> {
+    let (mut t0, mut t1, mut axis) = (0.0f64, f64::MAX, None);
+    for k in 0..3 {
+        if ld[k].abs() < 1e-12 {
+            if lo[k] < bounds[k].0 || lo[k] > bounds[k].1 {
+                return None;
+            }
+            continue;
+        }
+        let (mut a, mut b) = ((bounds[k].0 - lo[k]) / ld[k], (bounds[k].1 - lo[k]) / ld[k]);
+        if a > b {
+            std::mem::swap(&mut a, &mut b);
+        }
+        if a > t0 {
+            t0 = a;
+            axis = Some(k);
+        }
+        t1 = t1.min(b);
+        if t0 > t1 {
+            return None;
+        }
+    }
+    Some((t0, axis))
+}
+
 /// `x.floor()` for finite `x` of magnitude under 2^63 (but +0 for -0), without the call that
 /// `f64::floor` is on baseline x86-64.
 fn fast_floor(x: f64) -> f64 {
@@ -831,32 +841,9 @@ impl Block {
             (-self.half.1, self.half.1),
             self.z,
         ];
-        let (mut t0, mut t1, mut axis) = (0.0f64, f64::MAX, usize::MAX);
-        for k in 0..3 {
-            if ld[k].abs() < 1e-12 {
-                if lo[k] < bounds[k].0 || lo[k] > bounds[k].1 {
-                    return None;
-                }
-                continue;
-            }
-            let (mut a, mut b) = ((bounds[k].0 - lo[k]) / ld[k], (bounds[k].1 - lo[k]) / ld[k]);
-            if a > b {
-                std::mem::swap(&mut a, &mut b);
-            }
-            if a > t0 {
-                t0 = a;
-                axis = k;
-            }
-            t1 = t1.min(b);
-            if t0 > t1 {
-                return None;
-            }
-        }
+        let (t0, axis) = slab_entry(lo, ld, bounds)?;
         // Starting inside: nothing to see of this box.
-        if axis == usize::MAX {
-            return None;
-        }
-        Some((t0, axis, std::array::from_fn(|k| lo[k] + t0 * ld[k])))
+        Some((t0, axis?, std::array::from_fn(|k| lo[k] + t0 * ld[k])))
     }
 
     /// World point of a point in the box's frame (along, across).

@@ -7,9 +7,12 @@ use roadvo_sim::run::mount_for;
 use roadvo_sim::scenario::Scenario;
 use roadvo_sim::simulate::{poses_path, sequence_dir, simulate};
 
-/// On a straight a yaw error and a roll error of a camera pitched 20 deg down look alike (both
-/// turn the odometry); turns tell them apart. So the test asks for the drift to go, and for the
-/// yaw to move towards the truth, not for the yaw alone to take all of the correction.
+/// With the ground window's heading, a yaw error turns the odometry; with the whole image's (the
+/// default) it does not, and shows instead as the camera's direction of travel off by the
+/// error (a translation error of about 1.7 % a degree on the s-course, where the exact mount
+/// scores 0.2 %). On a straight a yaw error and a roll error of a camera pitched 20 deg down
+/// look alike; turns tell them apart. So the test asks for most of the error to go, and for
+/// the yaw to move towards the truth, not for the yaw alone to take all of the correction.
 #[test]
 fn calibration_removes_the_drift_of_a_yaw_error() {
     let dir = tempfile::tempdir().unwrap();
@@ -25,12 +28,12 @@ fn calibration_removes_the_drift_of_a_yaw_error() {
     assert!((told.mount_value("yaw_deg") - truth.mount_value("yaw_deg") - 1.0).abs() < 1e-4);
     let gt = read_poses(&poses_path(dir.path())).unwrap();
     let cal = calibrate(&seq, &gt, 0..120, &told, None, Metric::Short, 60, |_, _| {}).unwrap();
+    let yaw_error = cal.mount.mount_value("yaw_deg") - truth.mount_value("yaw_deg");
     assert!(
-        cal.cost_after < 0.25 * cal.cost_before,
-        "cost {} -> {}",
+        cal.cost_after < 0.35 * cal.cost_before,
+        "cost {} -> {} (yaw off by {yaw_error} deg)",
         cal.cost_before,
         cal.cost_after
     );
-    let yaw_error = cal.mount.mount_value("yaw_deg") - truth.mount_value("yaw_deg");
     assert!(yaw_error.abs() < 0.8, "yaw still off by {yaw_error} deg");
 }

@@ -270,13 +270,7 @@ mod tests {
 
     /// Points of a street scene: facades each side, far buildings, the road.
     fn scene(n: usize) -> Vec<Vector3<f32>> {
-        let mut x = 2463534242u32;
-        let mut next = || {
-            x ^= x << 13;
-            x ^= x >> 17;
-            x ^= x << 5;
-            (x % 10_000) as f32 / 10_000.0
-        };
+        let mut next = crate::test_rng::uniform(2463534242u32);
         (0..n)
             .map(|k| match k % 3 {
                 0 => Vector3::new(8.0 + 40.0 * next(), 7.0 + 3.0 * next(), 0.5 + 8.0 * next()),
@@ -366,13 +360,7 @@ mod ground_only {
             alpha: 2f32.to_radians(),
             ..Params::default()
         };
-        let mut x = 99u32;
-        let mut next = || {
-            x ^= x << 13;
-            x ^= x >> 17;
-            x ^= x << 5;
-            (x % 10_000) as f32 / 10_000.0
-        };
+        let mut next = crate::test_rng::uniform(99u32);
         let pairs: Vec<Pair> = (0..80)
             .map(|_| {
                 let pt = Vector3::new(3.0 + 8.0 * next(), -3.0 + 6.0 * next(), 0.0);

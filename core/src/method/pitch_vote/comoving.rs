@@ -299,13 +299,7 @@ mod tests {
 
     /// `n` road corners spread over the lower image, pseudo-random but fixed.
     fn road(n: usize, seed: u32) -> Vec<(f32, f32)> {
-        let mut x = seed;
-        let mut next = move || {
-            x ^= x << 13;
-            x ^= x >> 17;
-            x ^= x << 5;
-            (x % 10_000) as f32 / 10_000.0
-        };
+        let mut next = crate::test_rng::uniform(seed);
         (0..n)
             .map(|_| (100.0 + 1000.0 * next(), 240.0 + 130.0 * next()))
             .collect()

@@ -164,13 +164,7 @@ pub(crate) mod tests {
 
     /// Ground points spread over the KITTI window, pseudo-random but fixed.
     pub(crate) fn scene(n: usize) -> std::vec::Vec<GroundPoint> {
-        let mut x = 12345u32;
-        let mut next = || {
-            x ^= x << 13;
-            x ^= x >> 17;
-            x ^= x << 5;
-            (x % 10_000) as f32 / 10_000.0
-        };
+        let mut next = crate::test_rng::uniform(12345u32);
         (0..n)
             .map(|_| GroundPoint {
                 x_m: 7.0 + 6.0 * next(),
