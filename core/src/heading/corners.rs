@@ -55,33 +55,32 @@ fn has_arc(mask: u16) -> bool {
 /// (and where exactly it sits does not matter: its patch is what is found again).
 const STRIDE: usize = 2;
 
-/// The ring of sixteen at radius 3, in order round it: (row of the seven, column offset).
-const RING: [(usize, isize); 16] = [
-    (0, 0),
-    (0, 1),
-    (1, 2),
-    (2, 3),
-    (3, 3),
-    (4, 3),
-    (5, 2),
-    (6, 1),
-    (6, 0),
-    (6, -1),
-    (5, -2),
-    (4, -3),
-    (3, -3),
-    (2, -3),
-    (1, -2),
-    (0, -1),
-];
-
-/// The ring's pixels around column `u` of the middle one of seven rows, each at least `u + 4`
-/// long.
-fn ring(rows: &[&[u8]; 7], u: usize) -> [i16; 16] {
-    RING.map(|(r, dx)| {
-        let x = u.wrapping_add_signed(dx);
-        i16::from(rows[r].get(x).copied().unwrap_or(0))
-    })
+/// The ring of sixteen at radius 3 round column `u` of the middle one of seven rows, in order
+/// round it from straight up, clockwise; None where the rows do not reach 3 pixels either side.
+fn ring(rows: &[&[u8]; 7], u: usize) -> Option<[i16; 16]> {
+    let mut win = [[0u8; 7]; 7];
+    for (w, r) in win.iter_mut().zip(rows) {
+        *w = r.get(u.checked_sub(3)?..u + 4)?.try_into().ok()?;
+    }
+    let p = |r: usize, c: usize| i16::from(win[r][c]);
+    Some([
+        p(0, 3),
+        p(0, 4),
+        p(1, 5),
+        p(2, 6),
+        p(3, 6),
+        p(4, 6),
+        p(5, 5),
+        p(6, 4),
+        p(6, 3),
+        p(6, 2),
+        p(5, 1),
+        p(4, 0),
+        p(3, 0),
+        p(2, 0),
+        p(1, 1),
+        p(0, 2),
+    ])
 }
 
 /// Finds the corners of `frame` at least `border` pixels inside it with FAST threshold
@@ -135,7 +134,9 @@ pub fn detect<F: Frame + ?Sized>(
             if bright < 2 && dark < 2 {
                 continue;
             }
-            let ring = ring(&rows, u);
+            let Some(ring) = ring(&rows, u) else {
+                continue;
+            };
             let (mut bright_mask, mut dark_mask) = (0u16, 0u16);
             for (k, &p) in ring.iter().enumerate() {
                 bright_mask |= u16::from(p > hi) << k;
