@@ -1,60 +1,13 @@
-/* Start-up for a Cortex-M7 (QEMU mps2-an500): the vector table, the reset handler (copy .data,
-   zero .bss, switch the FPU on, paint the stack), and semihosting for output and exit. */
+/* The board (QEMU mps2-an500): semihosting for output and exit, the stack's high-water mark, the
+   camera's frame memory. Start-up is startup.c's. */
 #include "board.h"
 
 #include <stdint.h>
 
-int main(void);
-
-extern uint32_t _data_start, _data_end, _data_load, _bss_start, _bss_end;
 extern uint32_t _stack_bottom, _stack_top;
 extern const uint8_t _camera_memory_start, _camera_memory_end;
 
 #define STACK_PAINT 0xCCCCCCCCu
-
-void reset_handler(void) __attribute__((noreturn, naked));
-static void start(void) __attribute__((noreturn, used));
-static void fault_handler(void) __attribute__((noreturn));
-
-__attribute__((section(".vector_table"), used))
-static const void *const vector_table[16] = {
-    &_stack_top,   reset_handler, fault_handler, fault_handler, fault_handler, fault_handler,
-    fault_handler, 0,             0,             0,             0,             fault_handler,
-    fault_handler, 0,             fault_handler, fault_handler,
-};
-
-/* Naked: paints the stack before anything runs on it, then starts. */
-void reset_handler(void) {
-    __asm__ volatile(
-        "ldr r0, =_stack_bottom\n"
-        "mov r1, sp\n"
-        "ldr r2, =0xCCCCCCCC\n"
-        "1: cmp r0, r1\n"
-        "bhs 2f\n"
-        "str r2, [r0], #4\n"
-        "b 1b\n"
-        "2: b start\n"
-        ".ltorg\n");
-}
-
-static void start(void) {
-    for (uint32_t *s = &_data_load, *d = &_data_start; d < &_data_end;) {
-        *d++ = *s++;
-    }
-    for (uint32_t *d = &_bss_start; d < &_bss_end;) {
-        *d++ = 0;
-    }
-    /* CP10 and CP11 full access: the FPU, which the library's hard-float code uses. */
-    volatile uint32_t *cpacr = (volatile uint32_t *)0xE000ED88u;
-    *cpacr |= 0xFu << 20;
-    __asm__ volatile("dsb\n isb" ::: "memory");
-    board_exit(main() == 0);
-}
-
-static void fault_handler(void) {
-    board_write("fault\n");
-    board_exit(0);
-}
 
 static uintptr_t semihosting(uintptr_t op, const void *arg) {
     register uintptr_t r0 __asm__("r0") = op;

@@ -1,4 +1,4 @@
-/* The board: start-up, the stack's high-water mark, semihosting (output to the host, exit). */
+/* The board: the stack's high-water mark, semihosting (output to the host, exit). */
 #ifndef BOARD_H
 #define BOARD_H
 
