@@ -457,8 +457,10 @@ mod tests {
         e.is_ok_and(|e| e.quality.startup)
     }
 
-    /// The RAM budget of the default odometer, bytes (BRIEF: start at 64 KiB).
-    const BUDGET_BYTES: usize = 64 * 1024;
+    /// The RAM budget of the default odometer, bytes: the BRIEF's 64 KiB is the limit; the test
+    /// holds it to today's size and a little (measurements.md has the figure), so that growth
+    /// is a decision, not a drift.
+    const BUDGET_BYTES: usize = 57 * 1024;
 
     #[test]
     fn default_odometer_fits_its_ram_budget() {
