@@ -117,6 +117,29 @@ pub struct OwnPlaneFloor {
 /// a straight drive shows none.
 pub const MIN_AXIS_TURN_DEG: f64 = 5.0;
 
+/// How far a pose's rotation may be from orthonormal with determinant +1 (the largest entry of
+/// `R Rᵀ - I`, and `|det R - 1|`): a pose file's nine digits leave about 1e-8.
+pub const ROTATION_TOLERANCE: f64 = 1e-3;
+
+/// The first pose whose 3x3 part is not a rotation within [`ROTATION_TOLERANCE`]: its index
+/// and what is wrong.
+pub fn first_non_rotation(poses: &[Pose]) -> Option<(usize, String)> {
+    poses.iter().enumerate().find_map(|(i, p)| {
+        let r = Matrix3::from_fn(|row, col| p[4 * row + col]);
+        let off = (r * r.transpose() - Matrix3::identity()).amax();
+        let det = r.determinant();
+        (!(off <= ROTATION_TOLERANCE && (det - 1.0).abs() <= ROTATION_TOLERANCE)).then(|| {
+            (
+                i,
+                format!(
+                    "the rotation is not orthonormal (R Rt departs from I by {off:.3e}, det R = \
+                     {det:.6}; at most {ROTATION_TOLERANCE:e} is allowed)"
+                ),
+            )
+        })
+    })
+}
+
 /// The heading of a camera-0 pose about the vertical: the yaw of its optical axis, radians.
 pub fn heading_rad(p: &Pose) -> f64 {
     p[2].atan2(p[10])

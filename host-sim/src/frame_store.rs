@@ -4,11 +4,11 @@
 
 use crate::kitti::Sequence;
 use crate::mount::MountFile;
+use crate::output::OutputFile;
 use crate::run::config_for;
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use roadvo::Method;
 use roadvo::wire::frame_store::{HEADER_BYTES, Header};
-use std::io::Write;
 use std::path::Path;
 
 /// What `pack` wrote.
@@ -33,7 +33,8 @@ pub struct Limit {
 }
 
 /// Writes the first frames of `seq`, as many as `limit` allows, with the configuration of
-/// `mount` (its method replaced by `method` if given) to `out`; `progress` hears of each frame.
+/// `mount` (its method replaced by `method` if given) to `out`, whole or not at all (a failed or
+/// interrupted pack leaves an earlier `out` as it was); `progress` hears of each frame.
 pub fn pack(
     seq: &Sequence,
     mount: &MountFile,
@@ -54,23 +55,26 @@ pub fn pack(
         b.saturating_sub(HEADER_BYTES) / header.frame_bytes()
     });
     let n = limit.frames.unwrap_or(seq.frames).min(seq.frames).min(fit);
+    if n == 0 {
+        bail!(
+            "{}: no frame to pack (--frames 0, or --max-bytes below one frame of {} bytes)",
+            out.display(),
+            HEADER_BYTES + header.frame_bytes()
+        );
+    }
     header.frames = u32::try_from(n).context("too many frames for a frame store")?;
-    let file =
-        std::fs::File::create(out).with_context(|| format!("cannot create {}", out.display()))?;
-    let mut w = std::io::BufWriter::new(file);
-    let write_failed = || format!("cannot write {}", out.display());
-    w.write_all(&header.to_bytes()).with_context(write_failed)?;
+    let mut w = OutputFile::create(out)?;
+    w.write_all(&header.to_bytes())?;
     let width = usize::from(config.config().camera.width_px);
     let band = usize::from(rows.start) * width..usize::from(rows.end) * width;
     for i in 0..n {
+        crate::interrupt::check()?;
         let img = seq.load(i)?;
-        w.write_all(&seq.timestamp(i).total_micros().to_le_bytes())
-            .with_context(write_failed)?;
-        w.write_all(&img.as_raw()[band.clone()])
-            .with_context(write_failed)?;
+        w.write_all(&seq.timestamp(i).total_micros().to_le_bytes())?;
+        w.write_all(&img.as_raw()[band.clone()])?;
         progress();
     }
-    w.flush().with_context(write_failed)?;
+    w.commit()?;
     Ok(Packed {
         frames: n,
         bytes: HEADER_BYTES + n * header.frame_bytes(),

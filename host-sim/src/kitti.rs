@@ -92,7 +92,7 @@ pub fn read_poses(path: &Path) -> Result<Vec<Pose>, KittiError> {
 }
 
 /// Writes a pose file, creating its folder.
-pub fn write_poses(path: &Path, poses: &[Pose]) -> Result<(), KittiError> {
+pub fn write_poses(path: &Path, poses: &[Pose]) -> anyhow::Result<()> {
     let mut text = String::with_capacity(poses.len() * 200);
     for p in poses {
         let line: Vec<String> = p.iter().map(|x| format!("{x:.9e}")).collect();
@@ -101,16 +101,9 @@ pub fn write_poses(path: &Path, poses: &[Pose]) -> Result<(), KittiError> {
     write_text(path, &text)
 }
 
-/// Writes a text file, creating its folder.
-pub fn write_text(path: &Path, text: &str) -> Result<(), KittiError> {
-    let io = |source| KittiError::Io {
-        path: path.to_owned(),
-        source,
-    };
-    if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir).map_err(io)?;
-    }
-    std::fs::write(path, text).map_err(io)
+/// Writes a text file whole or not at all ([`crate::output`]), creating its folder.
+pub fn write_text(path: &Path, text: &str) -> anyhow::Result<()> {
+    crate::output::write_atomic(path, text.as_bytes())
 }
 
 /// Reads the `P0:` line of a `calib.txt`: the 3x4 projection of camera 0.
@@ -136,7 +129,7 @@ pub fn read_calib_p0(path: &Path) -> Result<[f64; 12], KittiError> {
 }
 
 /// Writes a `calib.txt` whose `P0` is a camera with these intrinsics.
-pub fn write_calib(path: &Path, fx: f64, fy: f64, cx: f64, cy: f64) -> Result<(), KittiError> {
+pub fn write_calib(path: &Path, fx: f64, fy: f64, cx: f64, cy: f64) -> anyhow::Result<()> {
     let p = [fx, 0.0, cx, 0.0, 0.0, fy, cy, 0.0, 0.0, 0.0, 1.0, 0.0];
     let nums: Vec<String> = p.iter().map(|x| format!("{x:.12e}")).collect();
     write_text(path, &format!("P0: {}\n", nums.join(" ")))
@@ -173,12 +166,38 @@ pub fn read_times(path: &Path) -> Result<Vec<f64>, KittiError> {
 }
 
 /// Writes `times.txt`.
-pub fn write_times(path: &Path, times: &[f64]) -> Result<(), KittiError> {
+pub fn write_times(path: &Path, times: &[f64]) -> anyhow::Result<()> {
     let mut text = String::new();
     for t in times {
         let _ = writeln!(text, "{t:.6e}");
     }
     write_text(path, &text)
+}
+
+/// The largest frame side the tools decode, pixels: far beyond any road camera, and a bound on
+/// a frame's memory (a 20000x20000 PNG of a few hundred kilobytes would take 400 MB).
+pub const MAX_FRAME_SIDE_PX: u32 = 8192;
+
+/// The smallest frame side, pixels: below it no ground window fits the corner detector.
+pub const MIN_FRAME_SIDE_PX: u32 = 16;
+
+/// The size of the frame at `path` from its header alone, checked against
+/// [`MIN_FRAME_SIDE_PX`]..=[`MAX_FRAME_SIDE_PX`].
+pub fn frame_size(path: &Path) -> Result<(u32, u32), KittiError> {
+    let file = |what: String| KittiError::File {
+        path: path.to_owned(),
+        what,
+    };
+    let (w, h) =
+        image::image_dimensions(path).map_err(|e| file(format!("cannot read the image: {e}")))?;
+    let range = MIN_FRAME_SIDE_PX..=MAX_FRAME_SIDE_PX;
+    if !range.contains(&w) || !range.contains(&h) {
+        return Err(file(format!(
+            "is {w}x{h} pixels; frames must be {MIN_FRAME_SIDE_PX} to {MAX_FRAME_SIDE_PX} pixels \
+             a side"
+        )));
+    }
+    Ok((w, h))
 }
 
 /// The path of frame `i` in a sequence folder.
@@ -259,11 +278,7 @@ impl Sequence {
             });
         }
         let p0 = read_calib_p0(&dir.join("calib.txt"))?;
-        let first = image_path(dir, 0);
-        let size = image::image_dimensions(&first).map_err(|e| KittiError::File {
-            path: first,
-            what: format!("cannot read the image: {e}"),
-        })?;
+        let size = frame_size(&image_path(dir, 0))?;
         Ok(Self {
             dir: dir.to_owned(),
             frames,
@@ -281,11 +296,19 @@ impl Sequence {
     /// Loads frame `i` as 8-bit grey; it must have the size of the first frame.
     pub fn load(&self, i: usize) -> Result<GrayImage, KittiError> {
         let path = image_path(&self.dir, i);
-        let img = image::open(&path).map_err(|e| KittiError::File {
+        let cannot_read = |e: &dyn std::fmt::Display| KittiError::File {
             path: path.clone(),
             what: format!("cannot read the image: {e}"),
-        })?;
-        let grey = img.into_luma8();
+        };
+        // The header's size is checked before any pixel is decoded.
+        let mut reader = image::ImageReader::open(&path)
+            .and_then(image::ImageReader::with_guessed_format)
+            .map_err(|e| cannot_read(&e))?;
+        let mut limits = image::Limits::default();
+        limits.max_image_width = Some(self.size.0);
+        limits.max_image_height = Some(self.size.1);
+        reader.limits(limits);
+        let grey = reader.decode().map_err(|e| cannot_read(&e))?.into_luma8();
         if grey.dimensions() != self.size {
             return Err(KittiError::File {
                 path,

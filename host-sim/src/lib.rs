@@ -3,14 +3,17 @@
 //! ground truth ([`calibrate`]), the paper's sensitivity study ([`sensitivity`]), the KITTI file layout
 //! ([`kitti`]), the mount file users write for their vehicles ([`mount`]), the KITTI metric
 //! ([`eval`]), runs of the odometer over a sequence ([`run`]), plots ([`plot`]) and the firmware example's
-//! frame store ([`frame_store`]). The `roadvo` binary is a thin command line over these.
+//! frame store ([`frame_store`]). Outputs are written whole or not at all ([`output`]), and a
+//! Ctrl-C ends long work cleanly ([`interrupt`]). The `roadvo` binary is a thin command line over these.
 
 pub mod calibrate;
 pub mod eval;
 pub mod export;
 pub mod frame_store;
+pub mod interrupt;
 pub mod kitti;
 pub mod mount;
+pub mod output;
 pub mod path;
 pub mod plot;
 pub mod render;

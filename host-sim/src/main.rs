@@ -6,5 +6,6 @@ mod cli;
 use clap::Parser;
 
 fn main() -> anyhow::Result<()> {
+    roadvo_sim::interrupt::file_size_limit_as_error();
     cli::Cli::parse().command.run()
 }

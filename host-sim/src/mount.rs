@@ -112,8 +112,7 @@ impl MountFile {
 
     /// Writes the file (see [`to_text`](Self::to_text)).
     pub fn write(&self, path: &Path, with_camera: bool, note: &str) -> Result<()> {
-        std::fs::write(path, self.to_text(with_camera, note))
-            .with_context(|| format!("cannot write {}", path.display()))
+        crate::output::write_atomic(path, self.to_text(with_camera, note).as_bytes())
     }
 
     /// Sets one value as a line of the file would: `KEY=VALUE` in `[odometer]`, or

@@ -34,8 +34,54 @@ fn top_view(p: &Pose) -> (f64, f64) {
     (p[3], p[11])
 }
 
+/// The formats a plot is written in, by the file's extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Format {
+    Png,
+    Svg,
+}
+
+/// The format of a plot at `out`, from its extension: an error for any other than .png and
+/// .svg, to be checked before any work.
+pub fn check_format(out: &Path) -> Result<()> {
+    format_of(out).map(|_| ())
+}
+
+fn format_of(out: &Path) -> Result<Format> {
+    let ext = out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("png") => Ok(Format::Png),
+        Some("svg") => Ok(Format::Svg),
+        _ => bail!("{}: plots are written as .png or .svg", out.display()),
+    }
+}
+
+/// The farthest a plotted position may be from the origin, metres: a road drive's top view
+/// spans kilometres, and beyond this the axes would take the plotting library forever.
+pub const MAX_COORDINATE_M: f64 = 1e7;
+
+/// Refuses tracks with positions that are not finite or lie beyond [`MAX_COORDINATE_M`].
+fn check_coordinates(tracks: &[Track]) -> Result<()> {
+    for t in tracks {
+        for (i, p) in t.poses.iter().enumerate() {
+            let (x, z) = top_view(p);
+            if !(x.abs() <= MAX_COORDINATE_M && z.abs() <= MAX_COORDINATE_M) {
+                bail!(
+                    "cannot plot the {}: pose {} is at ({x:e}, {z:e}) m, beyond +-{MAX_COORDINATE_M:e} m",
+                    t.label,
+                    i + 1
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Draws the top view of `tracks` (the first is ground truth) and, with a report, the error
-/// per segment length, into `out` (.png or .svg).
+/// per segment length, into `out` (.png or .svg), whole or not at all.
 pub fn plot_trajectories(
     out: &Path,
     title: &str,
@@ -43,27 +89,27 @@ pub fn plot_trajectories(
     report: Option<&Report>,
 ) -> Result<()> {
     register_font();
-    let ext = out
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
+    let format = format_of(out)?;
+    check_coordinates(tracks)?;
     let size = (1400u32, 700u32);
-    match ext.as_deref() {
-        Some("png") => {
-            let root = BitMapBackend::new(out, size).into_drawing_area();
-            draw(&root, title, tracks, report)?;
-            root.present()
-                .with_context(|| format!("cannot write {}", out.display()))?;
+    let failed = || format!("cannot write {}", out.display());
+    crate::output::write_atomic_with(out, |temp| {
+        // A Ctrl-C while drawing leaves an earlier plot in place.
+        let drawn = |()| crate::interrupt::check();
+        match format {
+            Format::Png => {
+                let root = BitMapBackend::new(temp, size).into_drawing_area();
+                draw(&root, title, tracks, report).and_then(drawn)?;
+                root.present().with_context(failed)?;
+            }
+            Format::Svg => {
+                let root = SVGBackend::new(temp, size).into_drawing_area();
+                draw(&root, title, tracks, report).and_then(drawn)?;
+                root.present().with_context(failed)?;
+            }
         }
-        Some("svg") => {
-            let root = SVGBackend::new(out, size).into_drawing_area();
-            draw(&root, title, tracks, report)?;
-            root.present()
-                .with_context(|| format!("cannot write {}", out.display()))?;
-        }
-        _ => bail!("{}: plots are written as .png or .svg", out.display()),
-    }
-    Ok(())
+        Ok(())
+    })
 }
 
 const COLOURS: [RGBColor; 4] = [

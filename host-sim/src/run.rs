@@ -5,13 +5,13 @@
 
 use crate::kitti::{Pose, Sequence, pose_of};
 use crate::mount::{MountFile, camera_of_sequence, file_key};
+use crate::output::OutputFile;
 use anyhow::{Context, Result, anyhow, bail};
 use image::GrayImage;
 use roadvo::wire::trace;
 use roadvo::{ConfigError, Estimate, Instant, Method, Odometer, SliceFrame, Smoother, ValidConfig};
 use serde::Serialize;
 use std::borrow::Cow;
-use std::io::Write;
 use std::path::Path;
 use std::time::Duration;
 
@@ -67,10 +67,11 @@ impl Preloaded {
     /// through the mount, smoothed as the configuration says).
     pub fn poses(&self, config: ValidConfig) -> Result<Vec<Pose>> {
         let mut trajectory = Trajectory::new(config, self.len())?;
-        run_frames(self, config, |_, e, t, _| {
+        run_frames(self, config, BadFrames::Stop, |_, e, t, _| {
             trajectory.push(e, t);
             Ok(())
-        })?;
+        })?
+        .complete()?;
         while trajectory.flush().is_some() {}
         Ok(trajectory.into_poses())
     }
@@ -100,30 +101,95 @@ pub struct Timing {
     pub decode: Duration,
 }
 
-/// Runs a fresh odometer with `config` over every frame of `source` on this thread; `each` sees
-/// every frame's number, estimate and timestamp and the time `process()` took. The one frame
-/// loop of the host.
+/// What to do with a frame that cannot be read or that the odometer refuses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BadFrames {
+    /// End the run there: the frames before it are the (partial) result.
+    Stop,
+    /// Leave it out and carry on: the odometer sees a longer interval, as for a dropped frame.
+    Skip,
+}
+
+/// A frame left out of a run, and why.
+#[derive(Debug)]
+pub struct Skipped {
+    /// The frame's number in the source.
+    pub frame: usize,
+    /// Why it was left out.
+    pub cause: anyhow::Error,
+}
+
+/// How a run over a source ended.
+#[derive(Debug)]
+pub struct Ran {
+    /// Time spent.
+    pub timing: Timing,
+    /// Frames left out ([`BadFrames::Skip`]), in order.
+    pub skipped: Vec<Skipped>,
+    /// The frame the run stopped at and why (a bad frame under [`BadFrames::Stop`], or an
+    /// interruption); `None` when every frame was run.
+    pub stopped: Option<Skipped>,
+}
+
+impl Ran {
+    /// The timing of a run that went to the end; an error naming the frame otherwise.
+    pub fn complete(self) -> Result<Timing> {
+        match self.stopped {
+            None => Ok(self.timing),
+            Some(s) => Err(s.cause.context(format!("frame {:06}", s.frame))),
+        }
+    }
+}
+
+/// Runs a fresh odometer with `config` over the frames of `source` on this thread; `each` sees
+/// every frame's number, estimate and timestamp and the time `process()` took. A frame that
+/// cannot be read or is refused is handled as `bad` says; a Ctrl-C ([`crate::interrupt`]) ends
+/// the run before the next frame. Errors from `each` end it with an error. The one frame loop
+/// of the host.
 pub fn run_frames(
     source: &impl FrameSource,
     config: ValidConfig,
+    bad: BadFrames,
     mut each: impl FnMut(usize, Estimate, Instant, Duration) -> Result<()>,
-) -> Result<Timing> {
+) -> Result<Ran> {
     let mut odo: Box<Odometer> = Box::new(Odometer::new(config).map_err(config_error)?);
-    let mut timing = Timing::default();
+    let mut ran = Ran {
+        timing: Timing::default(),
+        skipped: Vec::new(),
+        stopped: None,
+    };
     for i in 0..source.len() {
+        if let Err(cause) = crate::interrupt::check() {
+            ran.stopped = Some(Skipped { frame: i, cause });
+            break;
+        }
         let t0 = std::time::Instant::now();
-        let (img, t) = source.frame(i)?;
-        timing.decode += t0.elapsed();
-        let (w, h) = img.dimensions();
-        let frame = SliceFrame::new(img.as_raw(), w as u16, h as u16, w as usize)
-            .context("frame buffer")?;
+        let frame = source.frame(i);
+        ran.timing.decode += t0.elapsed();
         let t1 = std::time::Instant::now();
-        let est = odo.process(&frame, t);
+        let est = frame.and_then(|(img, t)| {
+            let (w, h) = img.dimensions();
+            let frame = SliceFrame::new(img.as_raw(), w as u16, h as u16, w as usize)
+                .context("frame buffer")?;
+            Ok((odo.process(&frame, t)?, t))
+        });
         let took = t1.elapsed();
-        timing.odometry += took;
-        each(i, est.with_context(|| format!("frame {i:06}"))?, t, took)?;
+        ran.timing.odometry += took;
+        match est {
+            Ok((est, t)) => each(i, est, t, took)?,
+            Err(cause) => {
+                let skipped = Skipped { frame: i, cause };
+                match bad {
+                    BadFrames::Skip => ran.skipped.push(skipped),
+                    BadFrames::Stop => {
+                        ran.stopped = Some(skipped);
+                        break;
+                    }
+                }
+            }
+        }
     }
-    Ok(timing)
+    Ok(ran)
 }
 
 /// A configuration the core refused, its setting named as a mount file writes it.
@@ -136,8 +202,8 @@ pub fn config_error(e: ConfigError) -> anyhow::Error {
         _ => None,
     };
     match field {
-        Some(key) => anyhow!("mount file: {e} ({key})"),
-        None => anyhow!("mount file: {e}"),
+        Some(key) => anyhow!("{e} ({key})"),
+        None => anyhow!("{e}"),
     }
 }
 
@@ -312,14 +378,16 @@ pub fn trace_line(kind: &str, frame: usize, e: &Estimate) -> String {
 
 /// What a run produced.
 pub struct RunOutput {
-    /// Per-frame estimates.
+    /// Per-frame estimates of the frames run, in order.
     pub estimates: Vec<Estimate>,
-    /// Camera-0 poses through the mount, KITTI format (smoothed if the configuration says so).
+    /// Camera-0 poses through the mount, KITTI format (smoothed if the configuration says so):
+    /// one a frame from the first up to the last frame run, skipped frames in between
+    /// interpolated.
     pub poses: Vec<Pose>,
     /// The heading smoother's lag, frames (0: none).
     pub smooth_lag_frames: u8,
-    /// Where the time went.
-    pub timing: Timing,
+    /// Where the time went, what was skipped and where the run stopped early.
+    pub ran: Ran,
 }
 
 impl RunOutput {
@@ -330,11 +398,12 @@ impl RunOutput {
 
     /// Frames per second of the odometry alone.
     pub fn frames_per_s(&self) -> f64 {
-        self.estimates.len() as f64 / self.timing.odometry.as_secs_f64().max(1e-9)
+        self.estimates.len() as f64 / self.ran.timing.odometry.as_secs_f64().max(1e-9)
     }
 }
 
-/// Optional per-frame outputs of a run.
+/// Optional per-frame outputs of a run, each written whole or not at all
+/// ([`crate::output`]).
 #[derive(Default)]
 pub struct RunFiles<'a> {
     /// Each frame's estimate and quality as JSON lines.
@@ -344,51 +413,89 @@ pub struct RunFiles<'a> {
 }
 
 /// Runs the odometer with `config` over `source`, writing `files` on the way; `progress` hears
-/// of each frame done.
+/// of each frame done. Bad frames are handled as `bad` says; a run that stops early (a bad
+/// frame, Ctrl-C) still returns, its outputs holding the frames before the stop
+/// ([`RunOutput::ran`] says where). A file that cannot be written is an error, and leaves
+/// every earlier version of the files as it was.
 pub fn run(
     source: &impl FrameSource,
     config: ValidConfig,
     files: &RunFiles,
+    bad: BadFrames,
     mut progress: impl FnMut(),
 ) -> Result<RunOutput> {
-    let create = |p: &Path| -> Result<_> {
-        let file =
-            std::fs::File::create(p).with_context(|| format!("cannot create {}", p.display()))?;
-        Ok(std::io::BufWriter::new(file))
-    };
-    let mut quality_out = files.quality.map(create).transpose()?;
-    let mut trace_out = files.trace.map(create).transpose()?;
+    let mut quality_out = files.quality.map(OutputFile::create).transpose()?;
+    let mut trace_out = files.trace.map(OutputFile::create).transpose()?;
     let mut estimates = Vec::with_capacity(source.len());
+    let mut frames_run = Vec::with_capacity(source.len());
     let mut trajectory = Trajectory::new(config, source.len())?;
-    let timing = run_frames(source, config, |i, est, t, _| {
+    let ran = run_frames(source, config, bad, |i, est, t, _| {
+        frames_run.push(i);
         let smoothed = trajectory.push(est, t);
         if let Some(out) = quality_out.as_mut() {
             let line = QualityLine::of(i, source.time_s(i), &est);
-            writeln!(out, "{}", serde_json::to_string(&line)?)?;
+            out.write_line(&serde_json::to_string(&line)?)?;
         }
         if let Some(out) = trace_out.as_mut() {
-            writeln!(out, "{}", trace_line("estimate", i, &est))?;
-            if let Some((frame, s)) = smoothed.filter(|_| trajectory.lag_frames() > 0) {
-                writeln!(out, "{}", trace_line("smoothed", frame, &s))?;
+            out.write_line(&trace_line("estimate", i, &est))?;
+            if let Some((k, s)) = smoothed.filter(|_| trajectory.lag_frames() > 0) {
+                out.write_line(&trace_line("smoothed", frames_run[k], &s))?;
             }
         }
         estimates.push(est);
         progress();
         Ok(())
     })?;
-    while let Some((frame, s)) = trajectory.flush() {
+    while let Some((k, s)) = trajectory.flush() {
         if let Some(out) = trace_out.as_mut() {
-            writeln!(out, "{}", trace_line("smoothed", frame, &s))?;
+            out.write_line(&trace_line("smoothed", frames_run[k], &s))?;
         }
     }
-    for mut out in [quality_out, trace_out].into_iter().flatten() {
-        out.flush()?;
+    for out in [quality_out, trace_out].into_iter().flatten() {
+        out.commit()?;
     }
     Ok(RunOutput {
         estimates,
         smooth_lag_frames: trajectory.lag_frames(),
-        poses: trajectory.into_poses(),
-        timing,
+        poses: fill_skipped(&trajectory.into_poses(), &frames_run),
+        ran,
+    })
+}
+
+/// One pose a frame from `frames[0]` to the last of `frames`: `poses[k]` is frame `frames[k]`'s
+/// and the frames between two run frames are interpolated (position linearly, rotation along
+/// the shortest arc). Frames before the first run frame have no pose.
+fn fill_skipped(poses: &[Pose], frames: &[usize]) -> Vec<Pose> {
+    let mut out = Vec::with_capacity(frames.last().map_or(0, |l| l + 1));
+    for (k, pair) in poses.windows(2).enumerate() {
+        let (a, b) = (frames[k], frames[k + 1]);
+        out.push(pair[0]);
+        for f in a + 1..b {
+            out.push(interpolate(
+                &pair[0],
+                &pair[1],
+                (f - a) as f64 / (b - a) as f64,
+            ));
+        }
+    }
+    out.extend(poses.last());
+    out
+}
+
+/// The pose a fraction `s` of the way from `a` to `b`.
+fn interpolate(a: &Pose, b: &Pose, s: f64) -> Pose {
+    let rotation = |p: &Pose| {
+        let m = nalgebra::Matrix3::from_fn(|r, c| p[4 * r + c]);
+        nalgebra::UnitQuaternion::from_matrix(&m)
+    };
+    let r = rotation(a).slerp(&rotation(b), s).to_rotation_matrix();
+    std::array::from_fn(|k| {
+        let (row, col) = (k / 4, k % 4);
+        if col == 3 {
+            a[k] + s * (b[k] - a[k])
+        } else {
+            r[(row, col)]
+        }
     })
 }
 
@@ -427,11 +534,12 @@ impl BenchOutput {
 pub fn bench(frames: &Preloaded, config: ValidConfig, repeats: usize) -> Result<BenchOutput> {
     let mut per_frame = Vec::with_capacity(frames.len() * repeats);
     for _ in 0..repeats {
-        run_frames(frames, config, |_, est, _, took| {
+        run_frames(frames, config, BadFrames::Stop, |_, est, _, took| {
             std::hint::black_box(est);
             per_frame.push(took);
             Ok(())
-        })?;
+        })?
+        .complete()?;
     }
     Ok(BenchOutput { per_frame })
 }
@@ -443,10 +551,41 @@ pub fn run_sequence(
     mount: &MountFile,
     method: Option<Method>,
 ) -> Result<RunOutput> {
-    run(
+    let output = run(
         seq,
         config_for(seq, mount, method)?,
         &RunFiles::default(),
+        BadFrames::Stop,
         || {},
-    )
+    )?;
+    if let Some(s) = &output.ran.stopped {
+        bail!("{}: frame {:06}: {:#}", seq.dir.display(), s.frame, s.cause);
+    }
+    Ok(output)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A pose `heading_rad` about camera 0's vertical (its y axis) at (x, 0, z).
+    fn pose(heading_rad: f64, x: f64, z: f64) -> Pose {
+        let (s, c) = heading_rad.sin_cos();
+        [c, 0.0, s, x, 0.0, 1.0, 0.0, 0.0, -s, 0.0, c, z]
+    }
+
+    #[test]
+    fn skipped_frames_are_interpolated_between_their_neighbours() {
+        let (a, b) = (pose(0.0, 0.0, 0.0), pose(0.3, 3.0, 6.0));
+        let filled = fill_skipped(&[a, b], &[2, 5]);
+        assert_eq!(filled.len(), 4, "frames 2 to 5");
+        assert_eq!((filled[0], filled[3]), (a, b));
+        for (k, p) in filled.iter().enumerate() {
+            let want = pose(0.1 * k as f64, k as f64, 2.0 * k as f64);
+            for (got, want) in p.iter().zip(want) {
+                assert!((got - want).abs() < 1e-12, "frame {}: {p:?}", k + 2);
+            }
+        }
+        assert!(fill_skipped(&[], &[]).is_empty());
+    }
 }

@@ -14,6 +14,7 @@
 
 use crate::Progress;
 use crate::kitti::{self, Pose};
+use crate::output::StagingDir;
 use crate::path::{DistanceClock, Path, WorldPose, speed_at};
 use crate::render::{BoxState, FrameState, Scene};
 use crate::scenario::Scenario;
@@ -151,8 +152,10 @@ fn plan(scenario: &Scenario, path: &Path, frames: Option<usize>, seed: u64) -> R
     })
 }
 
-/// Renders `scenario` into `out` (KITTI layout). `frames` cuts the drive short; `progress`
-/// hears of each frame rendered.
+/// Renders `scenario` into `out` (KITTI layout), whole or not at all: a failed or interrupted
+/// render leaves an earlier drive in `out` as it was, and a folder holding anything but an
+/// earlier drive is refused. `frames` cuts the drive short; `progress` hears of each frame
+/// rendered.
 pub fn simulate(
     scenario: &Scenario,
     out: &FsPath,
@@ -163,6 +166,11 @@ pub fn simulate(
     let path = Path::new(&scenario.segments).context("in the scenario's path")?;
     let drive = plan(scenario, &path, frames, seed)?;
     let n = drive.states.len();
+    // Rendered beside `out` and moved into place when complete; an earlier drive there is
+    // replaced, anything else refused.
+    let staging = StagingDir::new(out, |dir| sequence_dir(dir).join("scenario.toml").exists())?;
+    let final_out = out;
+    let out = staging.path();
     let seq = sequence_dir(out);
     std::fs::create_dir_all(seq.join("image_0"))
         .with_context(|| format!("cannot create {}", seq.display()))?;
@@ -214,13 +222,18 @@ pub fn simulate(
         .par_iter()
         .enumerate()
         .try_for_each(|(i, st)| -> Result<()> {
+            crate::interrupt::check()?;
             let img = scene.render(st, i as u64);
             let file = kitti::image_path(&seq, i);
+            let shown = sequence_dir(final_out)
+                .join("image_0")
+                .join(file.file_name().unwrap_or_default());
             img.save(&file)
-                .with_context(|| format!("cannot write {}", file.display()))?;
+                .with_context(|| format!("cannot write {}", shown.display()))?;
             progress.step();
             Ok(())
         })?;
+    staging.commit()?;
     Ok(Summary {
         frames: n,
         distance_m: drive.distance_m,

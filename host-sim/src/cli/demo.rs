@@ -7,7 +7,7 @@ use roadvo::Method;
 use roadvo_sim::eval::{Report, evaluate};
 use roadvo_sim::kitti::{Sequence, read_poses};
 use roadvo_sim::plot::{Track, plot_trajectories};
-use roadvo_sim::run::{RunFiles, config_for, mount_for, run};
+use roadvo_sim::run::{BadFrames, RunFiles, config_for, mount_for, run};
 use roadvo_sim::scenario::Scenario;
 use roadvo_sim::simulate::{poses_path, sequence_dir};
 use std::path::PathBuf;
@@ -38,8 +38,13 @@ impl DemoArgs {
         for method in Method::ALL {
             let progress = bar(seq.frames, method.name(), "frames");
             let config = config_for(&seq, &mount, Some(method))?;
-            let output = run(&seq, config, &RunFiles::default(), || progress.inc(1))?;
+            let output = run(&seq, config, &RunFiles::default(), BadFrames::Stop, || {
+                progress.inc(1)
+            })?;
             progress.finish_and_clear();
+            if let Some(s) = output.ran.stopped {
+                return Err(s.cause.context(format!("frame {:06}", s.frame)));
+            }
             println!(
                 "{:>10}: {} frames, {} fallbacks, odometry {:.0} frames/s",
                 method.name(),

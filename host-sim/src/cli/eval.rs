@@ -1,9 +1,10 @@
 //! `roadvo eval`.
 
-use anyhow::{Context, Result};
-use roadvo_sim::eval::{Report, evaluate, evaluate_planar, format_report};
+use anyhow::{Context, Result, bail};
+use roadvo_sim::eval::{Report, evaluate, evaluate_planar, first_non_rotation, format_report};
 use roadvo_sim::kitti::{Pose, read_poses};
-use roadvo_sim::plot::{Track, plot_trajectories};
+use roadvo_sim::output::check_outputs;
+use roadvo_sim::plot::{Track, check_format, plot_trajectories};
 use std::path::{Path, PathBuf};
 
 /// Compare an estimated trajectory with ground truth (KITTI pose files).
@@ -33,9 +34,18 @@ struct Evaluated {
     est: Vec<Pose>,
 }
 
+/// A pose file's poses, refused if any rotation is not one.
+fn read_rotations(path: &Path) -> Result<Vec<Pose>> {
+    let poses = read_poses(path)?;
+    if let Some((i, what)) = first_non_rotation(&poses) {
+        bail!("{} line {}: {what}", path.display(), i + 1);
+    }
+    Ok(poses)
+}
+
 fn eval_files(gt: &Path, est: &Path, planar: bool) -> Result<Evaluated> {
-    let g = read_poses(gt)?;
-    let e = read_poses(est)?;
+    let g = read_rotations(gt)?;
+    let e = read_rotations(est)?;
     let report = if planar {
         evaluate_planar(&g, &e)
     } else {
@@ -52,6 +62,11 @@ fn eval_files(gt: &Path, est: &Path, planar: bool) -> Result<Evaluated> {
 
 impl EvalArgs {
     pub fn run(self) -> Result<()> {
+        if let Some(p) = &self.plot {
+            roadvo_sim::interrupt::install();
+            check_format(p)?;
+            check_outputs(&[&self.gt, &self.est], &[], &[("--plot", p)])?;
+        }
         let Evaluated { report, gt, est } = eval_files(&self.gt, &self.est, self.planar)?;
         if self.json {
             println!("{}", serde_json::to_string_pretty(&report)?);

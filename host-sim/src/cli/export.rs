@@ -1,7 +1,7 @@
 //! `roadvo export-config`.
 
 use super::parse_method;
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use roadvo::{Method, Odometer, Smoother};
 use roadvo_sim::export::{Language, export};
 use roadvo_sim::kitti::Sequence;
@@ -93,9 +93,7 @@ impl ExportArgs {
         }
         let text = export(&config, language, &name, &header);
         match &self.out {
-            Some(p) => {
-                std::fs::write(p, text).with_context(|| format!("cannot write {}", p.display()))?
-            }
+            Some(p) => roadvo_sim::output::write_atomic(p, text.as_bytes())?,
             None => print!("{text}"),
         }
         Ok(())

@@ -11,14 +11,17 @@ mod run;
 mod sensitivity;
 mod simulate;
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use roadvo::Method;
 use roadvo_sim::kitti::Sequence;
+use roadvo_sim::kitti::image_path;
 use roadvo_sim::mount::MountFile;
-use roadvo_sim::run::mount_for;
-use std::path::PathBuf;
+use roadvo_sim::mount::camera_of_sequence;
+use roadvo_sim::output::check_outputs;
+use roadvo_sim::run::{config_for, mount_for};
+use std::path::{Path, PathBuf};
 
 /// The command line.
 #[derive(Parser)]
@@ -95,13 +98,43 @@ pub struct SequenceArgs {
 }
 
 impl SequenceArgs {
-    /// Opens the sequence and reads its mount file, with the `--set` changes.
+    /// Refuses, before any work, `outputs` (each with its option) that would overwrite the
+    /// sequence's files (`extra_inputs` besides), each other, or cannot be written.
+    pub fn check_outputs(&self, extra_inputs: &[PathBuf], outputs: &[(&str, &Path)]) -> Result<()> {
+        let dir = &self.seq_dir;
+        let mount = self.mount.clone().unwrap_or_else(|| dir.join("mount.toml"));
+        let mut inputs = vec![dir.join("times.txt"), dir.join("calib.txt"), mount];
+        inputs.extend_from_slice(extra_inputs);
+        let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+        check_outputs(&inputs, &[&dir.join("image_0")], outputs)
+    }
+
+    /// Opens the sequence and reads its mount file, with the `--set` changes, and checks the
+    /// configuration they make; a refusal names the mount file, and `calib.txt` and the first
+    /// frame where the camera comes from them.
     pub fn open(&self) -> Result<(Sequence, MountFile)> {
         let seq = Sequence::open(&self.seq_dir)?;
         let mut mount = mount_for(&seq, self.mount.as_deref())?;
         for s in &self.settings {
             mount.set(s)?;
         }
+        config_for(&seq, &mount, self.method).with_context(|| {
+            let path = self
+                .mount
+                .clone()
+                .unwrap_or_else(|| self.seq_dir.join("mount.toml"));
+            let mut what = format!("the configuration of {}", path.display());
+            if camera_of_sequence(&seq).is_ok_and(|c| c == mount.camera) {
+                let calib = self.seq_dir.join("calib.txt");
+                let first = image_path(&self.seq_dir, 0);
+                what += &format!(
+                    " with the camera of {} and the size of {}",
+                    calib.display(),
+                    first.display()
+                );
+            }
+            what
+        })?;
         Ok((seq, mount))
     }
 }

@@ -3,6 +3,7 @@
 use super::{SequenceArgs, bar};
 use anyhow::Result;
 use roadvo_sim::frame_store::{Limit, pack};
+use roadvo_sim::interrupt;
 use std::path::PathBuf;
 
 /// Pack a sequence into the firmware example's frame store.
@@ -13,9 +14,9 @@ pub struct PackArgs {
     /// Where to write the store.
     #[arg(long)]
     out: PathBuf,
-    /// Frames from the start of the sequence (default: all).
-    #[arg(long)]
-    frames: Option<usize>,
+    /// Frames from the start of the sequence, at least 1 (default: all).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    frames: Option<u32>,
     /// At most this many bytes: as many frames as a frame memory of this size holds (e.g.
     /// 16777216 for the firmware example's board).
     #[arg(long)]
@@ -24,11 +25,14 @@ pub struct PackArgs {
 
 impl PackArgs {
     pub fn run(self) -> Result<()> {
+        self.seq.check_outputs(&[], &[("--out", &self.out)])?;
+        interrupt::install();
         let (seq, mount) = self.seq.open()?;
-        let n = self.frames.unwrap_or(seq.frames).min(seq.frames);
+        let frames = self.frames.map(|n| n as usize);
+        let n = frames.unwrap_or(seq.frames).min(seq.frames);
         let progress = bar(n, "packing", "frames");
         let limit = Limit {
-            frames: self.frames,
+            frames,
             bytes: self.max_bytes,
         };
         let packed = pack(&seq, &mount, self.seq.method, limit, &self.out, || {

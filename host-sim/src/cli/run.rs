@@ -1,11 +1,12 @@
 //! `roadvo run`.
 
 use super::{SequenceArgs, bar};
-use anyhow::Result;
+use anyhow::{Result, bail};
 use roadvo_sim::eval::evaluate;
-use roadvo_sim::kitti::{read_poses, write_poses};
-use roadvo_sim::plot::{Track, plot_trajectories};
-use roadvo_sim::run::{RunFiles, RunOutput, config_for, run};
+use roadvo_sim::interrupt;
+use roadvo_sim::kitti::{Pose, read_poses, write_poses};
+use roadvo_sim::plot::{Track, check_format, plot_trajectories};
+use roadvo_sim::run::{BadFrames, RunFiles, RunOutput, config_for, run};
 use std::path::{Path, PathBuf};
 
 /// Run the odometer over a KITTI-layout sequence and write its trajectory.
@@ -27,43 +28,99 @@ pub struct RunArgs {
     /// (`smooth_lag_frames`), each smoothed estimate too, as `smoothed` lines.
     #[arg(long)]
     trace: Option<PathBuf>,
+    /// Leave out frames that cannot be read or that the odometer refuses, and carry on (the
+    /// odometer sees a longer interval, as for a dropped frame; their poses are interpolated).
+    /// Without it a run stops at such a frame and writes what it has, as a partial result.
+    #[arg(long)]
+    skip_bad_frames: bool,
 }
 
 impl RunArgs {
     pub fn run(self) -> Result<()> {
+        self.check_outputs()?;
         let (seq, mount) = self.seq.open()?;
         let config = config_for(&seq, &mount, self.seq.method)?;
         let files = RunFiles {
             quality: self.quality.as_deref(),
             trace: self.trace.as_deref(),
         };
+        let bad = if self.skip_bad_frames {
+            BadFrames::Skip
+        } else {
+            BadFrames::Stop
+        };
+        interrupt::install();
         let progress = bar(seq.frames, "odometry", "frames");
-        let output = run(&seq, config, &files, || progress.inc(1))?;
+        let output = run(&seq, config, &files, bad, || progress.inc(1))?;
         progress.finish_and_clear();
+        for s in &output.ran.skipped {
+            eprintln!("frame {:06} left out: {:#}", s.frame, s.cause);
+        }
+        if output.poses.is_empty() {
+            let why = output
+                .ran
+                .stopped
+                .map(|s| format!("frame {:06}: {:#}", s.frame, s.cause));
+            bail!(
+                "no frame was run, nothing written ({})",
+                why.unwrap_or_default()
+            );
+        }
         write_poses(&self.out, &output.poses)?;
         print_summary(&output, &self.out);
-        if let Some(p) = self.plot {
-            let gt = ground_truth_for(&self.seq.seq_dir).filter(|g| g.exists());
-            let gt_poses = gt.as_deref().map(read_poses).transpose()?;
-            let mut tracks = Vec::new();
-            if let Some(g) = gt_poses.as_deref() {
-                tracks.push(Track {
-                    label: "ground truth",
-                    poses: g,
-                });
-            }
-            tracks.push(Track {
-                label: "estimate",
-                poses: &output.poses,
-            });
-            let report = gt_poses
-                .as_deref()
-                .map(|g| evaluate(g, &output.poses))
-                .transpose()?;
-            let title = self.seq.seq_dir.display().to_string();
-            plot_trajectories(&p, &title, &tracks, report.as_ref())?;
-            println!("plot written to {}", p.display());
+        // Not after a Ctrl-C: the user asked to stop.
+        if let Some(p) = self.plot.as_ref().filter(|_| interrupt::check().is_ok()) {
+            self.plot(p, &output.poses)?;
         }
+        if let Some(s) = output.ran.stopped {
+            bail!(
+                "stopped at frame {:06} of {}: {:#}\nthe outputs are partial: they hold frames \
+                 000000 to {:06}",
+                s.frame,
+                seq.frames,
+                s.cause,
+                output.poses.len() - 1
+            );
+        }
+        Ok(())
+    }
+
+    /// Refuses, before any work, outputs that would overwrite an input or each other, that
+    /// cannot be written, and a plot in an unknown format.
+    fn check_outputs(&self) -> Result<()> {
+        let gt: Vec<PathBuf> = ground_truth_for(&self.seq.seq_dir).into_iter().collect();
+        let mut outputs = vec![("--out", self.out.as_path())];
+        outputs.extend(self.quality.as_deref().map(|p| ("--quality", p)));
+        outputs.extend(self.trace.as_deref().map(|p| ("--trace", p)));
+        outputs.extend(self.plot.as_deref().map(|p| ("--plot", p)));
+        if let Some(p) = &self.plot {
+            check_format(p)?;
+        }
+        self.seq.check_outputs(&gt, &outputs)
+    }
+
+    /// Draws the trajectory, with the ground truth beside the sequence if there is one.
+    fn plot(&self, p: &Path, poses: &[Pose]) -> Result<()> {
+        let gt = ground_truth_for(&self.seq.seq_dir).filter(|g| g.exists());
+        let gt_poses = gt.as_deref().map(read_poses).transpose()?;
+        let mut tracks = Vec::new();
+        if let Some(g) = gt_poses.as_deref() {
+            tracks.push(Track {
+                label: "ground truth",
+                poses: g,
+            });
+        }
+        tracks.push(Track {
+            label: "estimate",
+            poses,
+        });
+        let report = gt_poses
+            .as_deref()
+            .map(|g| evaluate(g, poses))
+            .transpose()?;
+        let title = self.seq.seq_dir.display().to_string();
+        plot_trajectories(p, &title, &tracks, report.as_ref())?;
+        println!("plot written to {}", p.display());
         Ok(())
     }
 }
@@ -85,9 +142,9 @@ fn print_summary(run: &RunOutput, out: &Path) {
         "{n} frames, {} fallbacks{smoothing}; odometry {:.1} ms ({:.0} frames/s \
          single-threaded), PNG decoding {:.1} ms a frame; trajectory written to {}",
         run.fallbacks(),
-        1e3 * run.timing.odometry.as_secs_f64() / n.max(1) as f64,
+        1e3 * run.ran.timing.odometry.as_secs_f64() / n.max(1) as f64,
         run.frames_per_s(),
-        1e3 * run.timing.decode.as_secs_f64() / n.max(1) as f64,
+        1e3 * run.ran.timing.decode.as_secs_f64() / n.max(1) as f64,
         out.display()
     );
 }

@@ -44,6 +44,7 @@ impl SimulateArgs {
             return Ok(());
         }
         let out = self.out.context("--out is required to render")?;
+        roadvo_sim::interrupt::install();
         render(&sc, &out, self.seed, self.frames)
     }
 }
