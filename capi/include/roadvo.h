@@ -87,6 +87,9 @@ typedef enum RoadvoStatus {
   ROADVO_STATUS_TIMESTAMP_NOT_INCREASING = 22,
   // The frame was refused for a reason this version of the API does not name.
   ROADVO_STATUS_FRAME_OTHER = 23,
+  // A focal length gives a field of view outside 1..170 deg, or the principal point lies
+  // more than a frame outside the image.
+  ROADVO_STATUS_IMPLAUSIBLE_CAMERA = 24,
 } RoadvoStatus;
 
 // An odometer: opaque to C, which holds it in storage of its own ([`roadvo_odometer_init`]).

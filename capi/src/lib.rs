@@ -121,6 +121,9 @@ pub enum RoadvoStatus {
     TimestampNotIncreasing = 22,
     /// The frame was refused for a reason this version of the API does not name.
     FrameOther = 23,
+    /// A focal length gives a field of view outside 1..170 deg, or the principal point lies
+    /// more than a frame outside the image.
+    ImplausibleCamera = 24,
 }
 
 impl From<ConfigError> for RoadvoStatus {
@@ -130,6 +133,7 @@ impl From<ConfigError> for RoadvoStatus {
             ConfigError::OutOfRange { .. } => Self::OutOfRange,
             ConfigError::EmptyImage => Self::EmptyImage,
             ConfigError::FocalLengthNotPositive => Self::FocalLengthNotPositive,
+            ConfigError::ImplausibleCamera { .. } => Self::ImplausibleCamera,
             ConfigError::CameraNotAboveGround => Self::CameraNotAboveGround,
             ConfigError::EvenHypotheses { .. } => Self::EvenHypotheses,
             ConfigError::EmptyWindow => Self::EmptyWindow,
@@ -824,6 +828,7 @@ fn status_text_c(status: RoadvoStatus) -> &'static core::ffi::CStr {
         S::WrongSize => c"the frame's size is not the configured one",
         S::TimestampNotIncreasing => c"the timestamp does not follow the previous frame's",
         S::FrameOther => c"the frame was refused",
+        S::ImplausibleCamera => c"the focal lengths or principal point do not fit the frame's size",
     }
 }
 

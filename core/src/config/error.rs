@@ -23,6 +23,16 @@ pub enum ConfigError {
     EmptyImage,
     /// A focal length is zero or negative.
     FocalLengthNotPositive,
+    /// A focal length gives a field of view outside [`MIN_FIELD_OF_VIEW_DEG`]..
+    /// [`MAX_FIELD_OF_VIEW_DEG`] across the image, or the principal point lies more than a
+    /// frame's width or height outside the image: not a camera that sees a road.
+    ///
+    /// [`MIN_FIELD_OF_VIEW_DEG`]: crate::config::MIN_FIELD_OF_VIEW_DEG
+    /// [`MAX_FIELD_OF_VIEW_DEG`]: crate::config::MAX_FIELD_OF_VIEW_DEG
+    ImplausibleCamera {
+        /// The setting's name (`fx_px`, `fy_px`, `cx_px` or `cy_px`).
+        field: &'static str,
+    },
     /// The camera is at or below the road (`mount.height_m <= 0`).
     CameraNotAboveGround,
     /// A count of attitude hypotheses is even: level must be one of them.
@@ -60,6 +70,19 @@ impl fmt::Display for ConfigError {
             }
             Self::EmptyImage => f.write_str("image width and height must be at least 1 pixel"),
             Self::FocalLengthNotPositive => f.write_str("focal lengths must be positive"),
+            Self::ImplausibleCamera { field } if field.starts_with('f') => write!(
+                f,
+                "{} gives a field of view outside {}..{} deg across the image: \
+                 check the focal length against the frame's size",
+                key(field),
+                crate::config::MIN_FIELD_OF_VIEW_DEG,
+                crate::config::MAX_FIELD_OF_VIEW_DEG
+            ),
+            Self::ImplausibleCamera { field } => write!(
+                f,
+                "{} puts the principal point more than a frame outside the image",
+                key(field)
+            ),
             Self::CameraNotAboveGround => {
                 f.write_str("the camera must be above the road (height_m > 0)")
             }

@@ -83,6 +83,7 @@ impl Config {
         if k.fx_px <= 0.0 || k.fy_px <= 0.0 {
             return Err(ConfigError::FocalLengthNotPositive);
         }
+        check_intrinsics(k)?;
         if m.height_m <= 0.0 {
             return Err(ConfigError::CameraNotAboveGround);
         }
@@ -125,6 +126,32 @@ impl Config {
         }
         Ok(valid)
     }
+}
+
+/// The narrowest field of view a camera may have across its frame's width or height, degrees.
+pub const MIN_FIELD_OF_VIEW_DEG: f32 = 1.0;
+/// The widest field of view across a frame's width or height, degrees: beyond this a pinhole
+/// model cannot hold the image.
+pub const MAX_FIELD_OF_VIEW_DEG: f32 = 170.0;
+
+/// Focal lengths that give a field of view between the bounds, and a principal point within a
+/// frame of the image.
+fn check_intrinsics(k: &Camera) -> Result<(), ConfigError> {
+    let axes = [
+        (k.width_px, k.fx_px, k.cx_px, "fx_px", "cx_px"),
+        (k.height_px, k.fy_px, k.cy_px, "fy_px", "cy_px"),
+    ];
+    for (size_px, focal_px, centre_px, focal, centre) in axes {
+        let size_px = f32::from(size_px);
+        let fov_deg = 2.0 * libm::atanf(size_px / (2.0 * focal_px)) / crate::setting::RAD_PER_DEG;
+        if !(MIN_FIELD_OF_VIEW_DEG..=MAX_FIELD_OF_VIEW_DEG).contains(&fov_deg) {
+            return Err(ConfigError::ImplausibleCamera { field: focal });
+        }
+        if !(-size_px..=2.0 * size_px).contains(&centre_px) {
+            return Err(ConfigError::ImplausibleCamera { field: centre });
+        }
+    }
+    Ok(())
 }
 
 /// Angle of hypothesis `i` of `steps` spread evenly over +-`range_rad`, level in the middle.

@@ -121,6 +121,11 @@ fn every_bad_value_has_its_error() {
         &|c| c.camera.fy_px = -700.0,
         ConfigError::FocalLengthNotPositive,
     );
+    let implausible = |field| ConfigError::ImplausibleCamera { field };
+    check(&|c| c.camera.fx_px = 1.0, implausible("fx_px"));
+    check(&|c| c.camera.fy_px = 1e5, implausible("fy_px"));
+    check(&|c| c.camera.cx_px = -1e4, implausible("cx_px"));
+    check(&|c| c.camera.cy_px = 1e4, implausible("cy_px"));
     check(
         &|c| c.mount.height_m = 0.0,
         ConfigError::CameraNotAboveGround,
@@ -207,6 +212,7 @@ fn every_bad_value_has_its_error() {
     check(
         &|c| {
             (c.camera.width_px, c.camera.height_px) = (100, 100);
+            (c.camera.cx_px, c.camera.cy_px) = (50.0, 50.0);
         },
         ConfigError::RoiOutsideImage,
     );
