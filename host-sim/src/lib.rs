@@ -1,10 +1,11 @@
 //! Host side of roadvo: everything around the core that needs `std`. Synthetic drives with exact
 //! ground truth ([`scenario`], [`path`], [`render`], [`simulate`]), mount calibration against
-//! ground truth ([`calibrate`]), the paper's sensitivity study ([`sensitivity`]), the KITTI file layout
-//! ([`kitti`]), the mount file users write for their vehicles ([`mount`]), the KITTI metric
-//! ([`eval`]), runs of the odometer over a sequence ([`run`]), plots ([`plot`]) and the firmware example's
-//! frame store ([`frame_store`]). Outputs are written whole or not at all ([`output`]), and a
-//! Ctrl-C ends long work cleanly ([`interrupt`]). The `roadvo` binary is a thin command line over these.
+//! ground truth ([`calibrate`]), the paper's sensitivity study ([`sensitivity`]), the KITTI file
+//! layout ([`kitti`]), the mount file users write for their vehicles ([`mount`]), the KITTI metric
+//! ([`eval`]), runs of the odometer over a sequence ([`run`]), an hour's soak of one odometer
+//! ([`soak`]), plots ([`plot`]) and the firmware example's frame store ([`frame_store`]). Outputs
+//! are written whole or not at all ([`output`]), and a Ctrl-C ends long work cleanly
+//! ([`interrupt`]). The `roadvo` binary is a thin command line over these.
 
 pub mod calibrate;
 pub mod eval;
@@ -21,6 +22,7 @@ pub mod run;
 pub mod scenario;
 pub mod sensitivity;
 pub mod simulate;
+pub mod soak;
 
 /// Hears of long work: [`start`](Self::start) once with the number of steps, then
 /// [`step`](Self::step) as each is done, possibly from several threads. The command line shows

@@ -49,20 +49,25 @@ pub struct WorldPose {
 impl WorldPose {
     /// Drives an arc of curvature `k` for `ds` metres from this pose.
     pub fn advance(&self, k: f64, ds: f64) -> WorldPose {
-        let a = k * ds;
-        let half = 0.5 * a;
+        self.drive(k * ds, ds)
+    }
+
+    /// Drives an arc that turns by `turn_rad` (positive left) over `distance_m` metres from this
+    /// pose: the core's per-frame [`roadvo::Motion`] in `f64`. The heading is not wrapped.
+    pub fn drive(&self, turn_rad: f64, distance_m: f64) -> WorldPose {
+        let half = 0.5 * turn_rad;
         // Chord length ds * sin(a/2) / (a/2), continuous at a = 0.
         let sinc = if half.abs() < 1e-6 {
             1.0 - half * half / 6.0
         } else {
             half.sin() / half
         };
-        let chord = ds * sinc;
+        let chord = distance_m * sinc;
         let dir = self.heading_rad + half;
         WorldPose {
             x_m: self.x_m + chord * dir.cos(),
             y_m: self.y_m + chord * dir.sin(),
-            heading_rad: self.heading_rad + a,
+            heading_rad: self.heading_rad + turn_rad,
         }
     }
 

@@ -45,13 +45,23 @@ pub struct Summary {
 }
 
 /// The drive's state at each frame: vehicle poses, body attitude, other road users.
-struct Drive {
-    times_s: Vec<f64>,
-    states: Vec<FrameState>,
-    distance_m: f64,
+pub(crate) struct Drive {
+    /// Each frame's time, seconds.
+    pub(crate) times_s: Vec<f64>,
+    /// Each frame's scene state.
+    pub(crate) states: Vec<FrameState>,
+    /// Distance along the path at the last frame, metres.
+    pub(crate) distance_m: f64,
 }
 
-fn plan(scenario: &Scenario, path: &Path, frames: Option<usize>, seed: u64) -> Result<Drive> {
+/// The drive's state at each frame of `scenario` along `path`: until the path ends, or
+/// `frames` frames (an error if the path ends first).
+pub(crate) fn plan(
+    scenario: &Scenario,
+    path: &Path,
+    frames: Option<usize>,
+    seed: u64,
+) -> Result<Drive> {
     let fps = scenario.frames_per_second;
     let length = path.length_m();
     // Frames until the path ends, unless a number is asked for.

@@ -10,6 +10,7 @@ mod pack;
 mod run;
 mod sensitivity;
 mod simulate;
+mod soak;
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
@@ -61,6 +62,9 @@ pub enum Command {
     Sensitivity(sensitivity::SensitivityArgs),
     /// Render the paper's s-course, run both methods, evaluate, and plot: the default demo.
     Demo(demo::DemoArgs),
+    /// An hour of driving (36,000 frames) through one odometer: time per frame at both ends,
+    /// counters, the odometer's size, the f32 pose's rounding.
+    Soak(soak::SoakArgs),
 }
 
 impl Command {
@@ -76,6 +80,7 @@ impl Command {
             Self::Bench(a) => a.run(),
             Self::Sensitivity(a) => a.run(),
             Self::Demo(a) => a.run(),
+            Self::Soak(a) => a.run(),
         }
     }
 }
