@@ -162,25 +162,17 @@ pub(crate) fn plan(
     })
 }
 
-/// Renders `scenario` into `out` (KITTI layout), whole or not at all: a failed or interrupted
-/// render leaves an earlier drive in `out` as it was, and a folder holding anything but an
-/// earlier drive is refused. `frames` cuts the drive short; `progress` hears of each frame
-/// rendered.
-pub fn simulate(
+/// Writes `drive` of `scenario` into the folder `out`: the ground truth, the sequence's files
+/// and every frame, rendered on all cores.
+fn write_drive(
     scenario: &Scenario,
-    out: &FsPath,
+    path: &Path,
+    drive: &Drive,
     seed: u64,
-    frames: Option<usize>,
+    out: &FsPath,
     progress: &dyn Progress,
-) -> Result<Summary> {
-    let path = Path::new(&scenario.segments).context("in the scenario's path")?;
-    let drive = plan(scenario, &path, frames, seed)?;
+) -> Result<()> {
     let n = drive.states.len();
-    // Rendered beside `out` and moved into place when complete; an earlier drive there is
-    // replaced, anything else refused.
-    let staging = StagingDir::new(out, |dir| sequence_dir(dir).join("scenario.toml").exists())?;
-    let final_out = out;
-    let out = staging.path();
     let seq = sequence_dir(out);
     std::fs::create_dir_all(seq.join("image_0"))
         .with_context(|| format!("cannot create {}", seq.display()))?;
@@ -224,9 +216,8 @@ pub fn simulate(
     );
     kitti::write_text(&seq.join("scenario.toml"), &record)?;
 
-    let scene = Scene::new(scenario, &path, seed);
+    let scene = Scene::new(scenario, path, seed);
     progress.start(n);
-    let start = std::time::Instant::now();
     drive
         .states
         .par_iter()
@@ -235,14 +226,34 @@ pub fn simulate(
             crate::interrupt::check()?;
             let img = scene.render(st, i as u64);
             let file = kitti::image_path(&seq, i);
-            let shown = sequence_dir(final_out)
-                .join("image_0")
-                .join(file.file_name().unwrap_or_default());
             img.save(&file)
-                .with_context(|| format!("cannot write {}", shown.display()))?;
+                .with_context(|| format!("cannot write {}", file.display()))?;
             progress.step();
             Ok(())
         })?;
+    Ok(())
+}
+
+/// Renders `scenario` into `out` (KITTI layout), whole or not at all: a failed or interrupted
+/// render leaves an earlier drive in `out` as it was, and a folder holding anything but an
+/// earlier drive is refused. `frames` cuts the drive short; `progress` hears of each frame
+/// rendered.
+pub fn simulate(
+    scenario: &Scenario,
+    out: &FsPath,
+    seed: u64,
+    frames: Option<usize>,
+    progress: &dyn Progress,
+) -> Result<Summary> {
+    let path = Path::new(&scenario.segments).context("in the scenario's path")?;
+    let drive = plan(scenario, &path, frames, seed)?;
+    let n = drive.states.len();
+    // Rendered beside `out` and moved into place when complete; an earlier drive there is
+    // replaced, anything else refused.
+    let staging = StagingDir::new(out, |dir| sequence_dir(dir).join("scenario.toml").exists())?;
+    let start = std::time::Instant::now();
+    write_drive(scenario, &path, &drive, seed, staging.path(), progress)
+        .with_context(|| format!("rendering into {}", out.display()))?;
     staging.commit()?;
     Ok(Summary {
         frames: n,

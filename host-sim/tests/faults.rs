@@ -141,16 +141,22 @@ fn a_failed_write_leaves_every_earlier_output_and_no_temporary() {
         ok(c);
     }
     let before = snapshot(dir);
-    for (what, args) in [
-        ("run", run),
-        ("pack", pack),
-        ("eval --plot", eval),
-        ("simulate", render(&drive, 30, 2)),
+    // Each with the file that could not be written.
+    for (what, args, said) in [
+        ("run", run, "cannot write q.jsonl"),
+        ("pack", pack, "cannot write store.bin"),
+        ("eval --plot", eval, "cannot write top.png"),
+        ("simulate", render(&drive, 30, 2), "rendering into drive"),
     ] {
         let out = limited(4, &args);
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(!out.status.success(), "{what} succeeded under the limit");
         assert!(err.contains("File too large"), "{what}: {err}");
+        let (verb, file) = said.rsplit_once(' ').unwrap();
+        assert!(
+            err.contains(&format!("{verb} {}", s(&dir.join(file)))),
+            "{what}: {err}"
+        );
         assert_eq!(snapshot(dir), before, "{what} changed an earlier output");
         assert!(
             temporaries(dir, ".").is_empty(),
