@@ -148,9 +148,14 @@ pub fn heading_rad(p: &Pose) -> f64 {
 /// A camera-0 pose in the ground plane: its position in x-z (y, down, set to 0) and its heading
 /// about the vertical (the yaw of its optical axis), the first frame's camera taken as level.
 pub fn planar_pose(p: &Pose) -> Pose {
-    let yaw = heading_rad(p);
-    let (s, c) = yaw.sin_cos();
-    [c, 0.0, s, p[3], 0.0, 1.0, 0.0, 0.0, -s, 0.0, c, p[11]]
+    level_pose(p[3], p[11], heading_rad(p))
+}
+
+/// A level camera-0 pose at `x_m` (right) and `z_m` (forward) of the first frame's camera,
+/// turned by `heading_rad` about the vertical.
+pub fn level_pose(x_m: f64, z_m: f64, heading_rad: f64) -> Pose {
+    let (s, c) = heading_rad.sin_cos();
+    [c, 0.0, s, x_m, 0.0, 1.0, 0.0, 0.0, -s, 0.0, c, z_m]
 }
 
 /// Per-frame heading-change errors of an odometer's own estimates against the ground truth.

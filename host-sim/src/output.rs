@@ -71,7 +71,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
 
 /// Writes `path` through `write`, which writes to the path it is given (a temporary file beside
 /// `path` with the same extension, for writers that choose their format by it), then renames
-/// the result into place.
+/// the result into place, unless a Ctrl-C came meanwhile ([`crate::interrupt`]).
 pub fn write_atomic_with(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
     let extension = path
         .extension()
@@ -79,6 +79,7 @@ pub fn write_atomic_with(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -
         .unwrap_or_default();
     let temp = temp_file_beside(path, &extension)?;
     write(temp.path())?;
+    crate::interrupt::check()?;
     let failed = || format!("cannot write {}", path.display());
     temp.as_file().sync_all().with_context(failed)?;
     temp.persist(path)

@@ -94,17 +94,15 @@ pub fn plot_trajectories(
     let size = (1400u32, 700u32);
     let failed = || format!("cannot write {}", out.display());
     crate::output::write_atomic_with(out, |temp| {
-        // A Ctrl-C while drawing leaves an earlier plot in place.
-        let drawn = |()| crate::interrupt::check();
         match format {
             Format::Png => {
                 let root = BitMapBackend::new(temp, size).into_drawing_area();
-                draw(&root, title, tracks, report).and_then(drawn)?;
+                draw(&root, title, tracks, report)?;
                 root.present().with_context(failed)?;
             }
             Format::Svg => {
                 let root = SVGBackend::new(temp, size).into_drawing_area();
-                draw(&root, title, tracks, report).and_then(drawn)?;
+                draw(&root, title, tracks, report)?;
                 root.present().with_context(failed)?;
             }
         }

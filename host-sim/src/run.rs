@@ -567,21 +567,16 @@ pub fn run_sequence(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// A pose `heading_rad` about camera 0's vertical (its y axis) at (x, 0, z).
-    fn pose(heading_rad: f64, x: f64, z: f64) -> Pose {
-        let (s, c) = heading_rad.sin_cos();
-        [c, 0.0, s, x, 0.0, 1.0, 0.0, 0.0, -s, 0.0, c, z]
-    }
+    use crate::eval::level_pose;
 
     #[test]
     fn skipped_frames_are_interpolated_between_their_neighbours() {
-        let (a, b) = (pose(0.0, 0.0, 0.0), pose(0.3, 3.0, 6.0));
+        let (a, b) = (level_pose(0.0, 0.0, 0.0), level_pose(3.0, 6.0, 0.3));
         let filled = fill_skipped(&[a, b], &[2, 5]);
         assert_eq!(filled.len(), 4, "frames 2 to 5");
         assert_eq!((filled[0], filled[3]), (a, b));
         for (k, p) in filled.iter().enumerate() {
-            let want = pose(0.1 * k as f64, k as f64, 2.0 * k as f64);
+            let want = level_pose(k as f64, 2.0 * k as f64, 0.1 * k as f64);
             for (got, want) in p.iter().zip(want) {
                 assert!((got - want).abs() < 1e-12, "frame {}: {p:?}", k + 2);
             }

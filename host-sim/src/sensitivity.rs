@@ -269,11 +269,7 @@ pub fn format_rows(rows: &[Row]) -> String {
 mod tests {
     use super::*;
 
-    /// A camera-0 pose at (x right, z forward) with heading `yaw` (rad) about the vertical.
-    fn pose(x: f64, z: f64, yaw: f64) -> Pose {
-        let (s, c) = yaw.sin_cos();
-        [c, 0.0, s, x, 0.0, 1.0, 0.0, 0.0, -s, 0.0, c, z]
-    }
+    use crate::eval::level_pose as pose;
 
     #[test]
     fn a_longer_path_and_an_extra_turn_show_as_their_errors() {

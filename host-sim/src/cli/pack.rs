@@ -25,8 +25,8 @@ pub struct PackArgs {
 
 impl PackArgs {
     pub fn run(self) -> Result<()> {
-        self.seq.check_outputs(&[], &[("--out", &self.out)])?;
         interrupt::install();
+        self.seq.check_outputs(&[], &[("--out", &self.out)])?;
         let (seq, mount) = self.seq.open()?;
         let frames = self.frames.map(|n| n as usize);
         let n = frames.unwrap_or(seq.frames).min(seq.frames);

@@ -37,6 +37,7 @@ pub struct RunArgs {
 
 impl RunArgs {
     pub fn run(self) -> Result<()> {
+        interrupt::install();
         self.check_outputs()?;
         let (seq, mount) = self.seq.open()?;
         let config = config_for(&seq, &mount, self.seq.method)?;
@@ -49,7 +50,6 @@ impl RunArgs {
         } else {
             BadFrames::Stop
         };
-        interrupt::install();
         let progress = bar(seq.frames, "odometry", "frames");
         let output = run(&seq, config, &files, bad, || progress.inc(1))?;
         progress.finish_and_clear();
