@@ -288,4 +288,31 @@ fn every_bad_input_is_refused_with_its_file_and_reason() {
     // The partial run kept the five good frames.
     let partial = std::fs::read_to_string(dir.path().join("partial.txt")).unwrap();
     assert_eq!(partial.lines().count(), 5);
+    // Told to, a run carries on past the bad frame: a pose for every frame, the bad one's
+    // between its neighbours'.
+    let skipped = dir.path().join("skipped.txt");
+    let broken = dir.path().join("broken");
+    let out = roadvo(&args(&[
+        "run",
+        &s(&broken),
+        "--out",
+        &s(&skipped),
+        "--skip-bad-frames",
+    ]));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("frame 000005 left out") && err.contains("000005.png"),
+        "{err}"
+    );
+    let poses: Vec<Vec<f64>> = std::fs::read_to_string(&skipped)
+        .unwrap()
+        .lines()
+        .map(|l| l.split_whitespace().map(|w| w.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(poses.len(), 12);
+    for k in [3, 7, 11] {
+        let between = 0.5 * (poses[4][k] + poses[6][k]);
+        assert!((poses[5][k] - between).abs() < 1e-6, "{k}: {:?}", poses[5]);
+    }
 }
