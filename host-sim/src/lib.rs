@@ -9,6 +9,7 @@ pub mod calibrate;
 pub mod eval;
 pub mod export;
 pub mod frame_store;
+pub mod input;
 pub mod kitti;
 pub mod mount;
 pub mod path;
