@@ -224,6 +224,8 @@ impl MountFile {
 /// A value as a mount file writes it: the shortest decimal that reads back to the same `f32`.
 fn toml_text(v: Value) -> String {
     match v {
+        // TOML spells it `nan`; `{:?}` would write `NaN`, which does not read back.
+        Value::F32(x) if x.is_nan() => "nan".to_owned(),
         Value::F32(x) => format!("{x:?}"),
         Value::U8(x) => x.to_string(),
         Value::U16(x) => x.to_string(),
@@ -379,6 +381,22 @@ height_m = 1.65
             assert!(e.contains(says), "{assignment}: {e}");
         }
         assert_eq!(f, before);
+    }
+
+    #[test]
+    fn a_nan_is_written_as_toml_spells_it_and_reads_back() {
+        let p = Path::new("mount.toml");
+        let text = KITTI.replace("x_m = 1.0", "x_m = nan");
+        let f = MountFile::parse(&text, p, None).unwrap();
+        let written = f.to_text(true, "");
+        assert!(written.contains("x_m = nan\n"), "{written}");
+        assert!(
+            MountFile::parse(&written, p, None)
+                .unwrap()
+                .mount
+                .x_m
+                .is_nan()
+        );
     }
 
     #[test]
