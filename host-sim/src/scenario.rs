@@ -498,10 +498,16 @@ pub const MAX_ANGLE_DEG: f64 = 90.0;
 /// The highest suspension frequency, Hz.
 pub const MAX_FREQUENCY_HZ: f64 = 100.0;
 
-/// Checks that `key` is a number within `lo..=hi` (`unit` after the numbers, for messages).
+/// Checks that `key` is a number within `lo..=hi`, either of which may be infinite (`unit`
+/// after the numbers, for messages).
 fn within(key: &str, x: f64, [lo, hi]: [f64; 2], unit: &str) -> Result<()> {
     if !(lo..=hi).contains(&x) {
-        bail!("{key} = {x} is outside {lo} to {hi}{unit}, the limits of a scenario");
+        let limits = match (lo.is_finite(), hi.is_finite()) {
+            (false, _) => format!("is more than {hi}{unit}, the limit"),
+            (_, false) => format!("is less than {lo}{unit}, the limit"),
+            _ => format!("is outside {lo} to {hi}{unit}, the limits"),
+        };
+        bail!("{key} = {x} {limits} of a scenario");
     }
     Ok(())
 }
@@ -763,7 +769,7 @@ impl Scenario {
                 within(
                     &key("radius_m"),
                     *radius_m,
-                    [1.0 / MAX_CURVATURE_PER_M, f64::MAX],
+                    [1.0 / MAX_CURVATURE_PER_M, f64::INFINITY],
                     " m",
                 )?;
             }
@@ -811,7 +817,12 @@ impl Scenario {
             within(&key("ahead_m"), v.ahead_m, plus_minus(MAX_PATH_M), " m")?;
             within(&key("speed_m_s"), v.speed_m_s.unwrap_or(0.0), speed, " m/s")?;
             within(&key("cross_speed_m_s"), v.cross_speed_m_s, speed, " m/s")?;
-            within(&key("appear_s"), v.appear_s, [f64::MIN, MAX_DRIVE_S], " s")?;
+            within(
+                &key("appear_s"),
+                v.appear_s,
+                [f64::NEG_INFINITY, MAX_DRIVE_S],
+                " s",
+            )?;
             if v.disappear_s.is_nan() {
                 bail!("{}: not a number", key("disappear_s"));
             }
@@ -1005,6 +1016,10 @@ mod tests {
                  the limit of 20000 m",
             ),
             (
+                ("radius_m = 40.0", "radius_m = 0.5"),
+                "big.toml: [[segment]] 3: radius_m = 0.5 is less than 1 m, the limit of a scenario",
+            ),
+            (
                 ("speed_m_s = 9.0", "speed_m_s = 1e9"),
                 "big.toml: [[speed]] 1: speed_m_s = 1000000000 is outside 0 to 100 m/s",
             ),
@@ -1026,7 +1041,8 @@ mod tests {
         for (extra, says) in [
             (
                 "[[vehicle]]\nlateral_m = 0.0\nahead_m = 10.0\nappear_s = 1e30\n",
-                "big.toml: [[vehicle]] 1: appear_s = 1000000000000000000000000000000 is outside",
+                "big.toml: [[vehicle]] 1: appear_s = 1000000000000000000000000000000 is more \
+                 than 3600 s, the limit of a scenario",
             ),
             (
                 "[suspension]\npitch_frequency_hz = 1e300\n",
