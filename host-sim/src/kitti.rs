@@ -3,6 +3,7 @@
 //! (12 numbers a line: the 3x4 pose of camera 0 in the frame of camera 0 at the first frame).
 //! Every error names the file, the line where there is one, and what was expected.
 
+use crate::input::{Input, InputError, read_text};
 use image::GrayImage;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -37,6 +38,9 @@ pub enum KittiError {
         /// What was expected and found.
         what: String,
     },
+    /// The file is too large or not text.
+    #[error(transparent)]
+    Input(#[from] InputError),
     /// The file or folder as a whole is wrong.
     #[error("{}: {what}", path.display())]
     File {
@@ -47,11 +51,15 @@ pub enum KittiError {
     },
 }
 
-fn read_text(path: &Path) -> Result<String, KittiError> {
-    std::fs::read_to_string(path).map_err(|source| KittiError::Io {
+/// The largest timestamp taken, seconds (about 31 years): larger ones lose the microsecond.
+pub const MAX_TIME_S: f64 = 1e9;
+
+fn line_error(path: &Path, line: usize, what: String) -> KittiError {
+    KittiError::Line {
         path: path.to_owned(),
-        source,
-    })
+        line,
+        what,
+    }
 }
 
 fn parse_numbers(path: &Path, line: usize, text: &str) -> Result<Vec<f64>, KittiError> {
@@ -69,16 +77,23 @@ fn parse_numbers(path: &Path, line: usize, text: &str) -> Result<Vec<f64>, Kitti
         .collect()
 }
 
-/// Reads a pose file: one pose of 12 numbers per line; blank lines at the end are allowed.
+/// Reads a pose file (see [`parse_poses`]), at most [`MAX_POSES_BYTES`](crate::input::MAX_POSES_BYTES).
 pub fn read_poses(path: &Path) -> Result<Vec<Pose>, KittiError> {
-    let text = read_text(path)?;
+    parse_poses(&read_text(path, Input::Poses)?, path)
+}
+
+/// Parses the text of a pose file: one pose of 12 numbers per line; blank lines at the end are
+/// allowed. Errors name `path`, and the line where there is one.
+pub fn parse_poses(text: &str, path: &Path) -> Result<Vec<Pose>, KittiError> {
     let mut poses = Vec::new();
     for (i, line) in text.trim_end().lines().enumerate() {
         let nums = parse_numbers(path, i + 1, line)?;
-        let pose: Pose = nums.as_slice().try_into().map_err(|_| KittiError::Line {
-            path: path.to_owned(),
-            line: i + 1,
-            what: format!("expected 12 numbers (a 3x4 pose), found {}", nums.len()),
+        let pose: Pose = nums.as_slice().try_into().map_err(|_| {
+            line_error(
+                path,
+                i + 1,
+                format!("expected 12 numbers (a 3x4 pose), found {}", nums.len()),
+            )
         })?;
         poses.push(pose);
     }
@@ -106,26 +121,77 @@ pub fn write_text(path: &Path, text: &str) -> anyhow::Result<()> {
     crate::output::write_atomic(path, text.as_bytes())
 }
 
-/// Reads the `P0:` line of a `calib.txt`: the 3x4 projection of camera 0.
+/// Reads the `P0:` line of a `calib.txt` (see [`parse_calib_p0`]), at most
+/// [`MAX_CALIB_BYTES`](crate::input::MAX_CALIB_BYTES).
 pub fn read_calib_p0(path: &Path) -> Result<[f64; 12], KittiError> {
-    let text = read_text(path)?;
+    parse_calib_p0(&read_text(path, Input::Calib)?, path)
+}
+
+/// What a rectified camera-0 projection looks like, for messages.
+const P0_SHAPE: &str = "a rectified camera-0 projection is `fx 0 cx tx 0 fy cy ty 0 0 1 0` \
+                        with fx, fy > 0";
+
+/// Parses the text of a `calib.txt`: its one `P0:` line, the 3x4 projection of camera 0, which
+/// must be a rectified camera's (no skew, third row `0 0 1 0`, positive focal lengths). Other
+/// lines are left alone. Errors name `path` and the line.
+pub fn parse_calib_p0(text: &str, path: &Path) -> Result<[f64; 12], KittiError> {
+    let mut found: Option<(usize, [f64; 12])> = None;
     for (i, line) in text.lines().enumerate() {
-        if let Some(rest) = line.trim_start().strip_prefix("P0:") {
-            let nums = parse_numbers(path, i + 1, rest)?;
-            return nums.as_slice().try_into().map_err(|_| KittiError::Line {
-                path: path.to_owned(),
-                line: i + 1,
-                what: format!(
+        let Some(rest) = line.trim_start().strip_prefix("P0:") else {
+            continue;
+        };
+        let line = i + 1;
+        if let Some((first, _)) = found {
+            return Err(line_error(
+                path,
+                line,
+                format!(
+                    "a second `P0:` line (the first is line {first}): which one is camera 0's?"
+                ),
+            ));
+        }
+        let nums = parse_numbers(path, line, rest)?;
+        let p: [f64; 12] = nums.as_slice().try_into().map_err(|_| {
+            line_error(
+                path,
+                line,
+                format!(
                     "P0 needs 12 numbers (a 3x4 projection), found {}",
                     nums.len()
                 ),
-            });
-        }
+            )
+        })?;
+        check_p0(&p).map_err(|what| line_error(path, line, format!("{what}: {P0_SHAPE}")))?;
+        found = Some((line, p));
     }
-    Err(KittiError::File {
+    found.map(|(_, p)| p).ok_or_else(|| KittiError::File {
         path: path.to_owned(),
         what: "no line starts with `P0:` (the projection of camera 0)".into(),
     })
+}
+
+/// What is wrong with `p` as a rectified camera-0 projection, if anything.
+fn check_p0(p: &[f64; 12]) -> Result<(), String> {
+    let named = |k: usize| format!("P0 number {} is {}, not 0", k + 1, p[k]);
+    if p[1] != 0.0 {
+        return Err(format!("{} (a skewed camera)", named(1)));
+    }
+    if p[4] != 0.0 {
+        return Err(named(4));
+    }
+    if p[8] != 0.0 || p[9] != 0.0 || p[10] != 1.0 || p[11] != 0.0 {
+        return Err(format!(
+            "the third row is `{} {} {} {}`, not `0 0 1 0`",
+            p[8], p[9], p[10], p[11]
+        ));
+    }
+    if !(p[0] > 0.0 && p[5] > 0.0) {
+        return Err(format!(
+            "the focal lengths (numbers 1 and 6) are {} and {}",
+            p[0], p[5]
+        ));
+    }
+    Ok(())
 }
 
 /// Writes a `calib.txt` whose `P0` is a camera with these intrinsics.
@@ -135,34 +201,46 @@ pub fn write_calib(path: &Path, fx: f64, fy: f64, cx: f64, cy: f64) -> anyhow::R
     write_text(path, &format!("P0: {}\n", nums.join(" ")))
 }
 
-/// Reads `times.txt`: one timestamp in seconds per line, strictly increasing.
+/// Reads `times.txt` (see [`parse_times`]), at most
+/// [`MAX_TIMES_BYTES`](crate::input::MAX_TIMES_BYTES).
 pub fn read_times(path: &Path) -> Result<Vec<f64>, KittiError> {
-    let text = read_text(path)?;
+    parse_times(&read_text(path, Input::Times)?, path)
+}
+
+/// Parses the text of a `times.txt`: one timestamp in seconds per line, from 0 to
+/// [`MAX_TIME_S`], each at least a microsecond after the one before (the odometer counts
+/// microseconds). Errors name `path` and the line.
+pub fn parse_times(text: &str, path: &Path) -> Result<Vec<f64>, KittiError> {
     let mut times: Vec<f64> = Vec::new();
     for (i, line) in text.trim_end().lines().enumerate() {
         let nums = parse_numbers(path, i + 1, line)?;
+        let fail = |what| Err(line_error(path, i + 1, what));
         let [t] = nums.as_slice() else {
-            return Err(KittiError::Line {
-                path: path.to_owned(),
-                line: i + 1,
-                what: format!(
-                    "expected one timestamp in seconds, found {} numbers",
-                    nums.len()
-                ),
-            });
+            return fail(format!(
+                "expected one timestamp in seconds, found {} numbers",
+                nums.len()
+            ));
         };
+        if !(0.0..=MAX_TIME_S).contains(t) {
+            return fail(format!(
+                "timestamp {t} s is outside 0 to {MAX_TIME_S:e} s (seconds from the sequence's start)"
+            ));
+        }
         if let Some(&prev) = times.last()
-            && *t <= prev
+            && micros(*t) <= micros(prev)
         {
-            return Err(KittiError::Line {
-                path: path.to_owned(),
-                line: i + 1,
-                what: format!("timestamp {t} does not increase (previous line: {prev})"),
-            });
+            return fail(format!(
+                "timestamp {t} does not increase by a microsecond or more (previous line: {prev})"
+            ));
         }
         times.push(*t);
     }
     Ok(times)
+}
+
+/// A timestamp in seconds to the microsecond, as the odometer is given it.
+fn micros(t_s: f64) -> u64 {
+    (t_s * 1e6).round() as u64
 }
 
 /// Writes `times.txt`.
@@ -268,11 +346,11 @@ impl Sequence {
         let frames = numbers.len();
         let times_path = dir.join("times.txt");
         let times_s = read_times(&times_path)?;
-        if times_s.len() < frames {
+        if times_s.len() != frames {
             return Err(KittiError::File {
                 path: times_path,
                 what: format!(
-                    "has {} timestamps but image_0 holds {frames} frames",
+                    "has {} timestamps but image_0 holds {frames} frames: one a frame",
                     times_s.len()
                 ),
             });
@@ -282,7 +360,7 @@ impl Sequence {
         Ok(Self {
             dir: dir.to_owned(),
             frames,
-            times_s: times_s[..frames].to_vec(),
+            times_s,
             p0,
             size,
         })
@@ -290,7 +368,7 @@ impl Sequence {
 
     /// Frame `i`'s timestamp, to the microsecond, as every run of the odometer gives it.
     pub fn timestamp(&self, i: usize) -> roadvo::Instant {
-        roadvo::Instant::from_micros((self.times_s[i] * 1e6).round() as u64)
+        roadvo::Instant::from_micros(micros(self.times_s[i]))
     }
 
     /// Loads frame `i` as 8-bit grey; it must have the size of the first frame.
@@ -415,6 +493,105 @@ mod tests {
             e.contains("000001.png: is 63x48, expected 64x48 like 000000.png"),
             "{e}"
         );
+    }
+
+    const P0: &str = "P0: 7.188560000000e+02 0.000000000000e+00 6.071928000000e+02 \
+                      0.000000000000e+00 0.000000000000e+00 7.188560000000e+02 1.852157000000e+02 \
+                      0.000000000000e+00 0.000000000000e+00 0.000000000000e+00 1.000000000000e+00 \
+                      0.000000000000e+00";
+
+    #[test]
+    fn a_second_p0_line_names_both_lines() {
+        let text = format!("{P0}\nP1: 1 2 3\n{P0}\n");
+        let e = parse_calib_p0(&text, Path::new("seq/calib.txt"))
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "seq/calib.txt line 3: a second `P0:` line (the first is line 1): which one is \
+             camera 0's?"
+        );
+        assert_eq!(parse_calib_p0(P0, Path::new("c")).unwrap()[0], 718.856);
+    }
+
+    #[test]
+    fn a_p0_that_is_not_a_rectified_camera_is_refused_with_its_line() {
+        let numbers: Vec<&str> = P0.split_whitespace().skip(1).collect();
+        for (k, value, says) in [
+            (1, "0.5", "P0 number 2 is 0.5, not 0 (a skewed camera)"),
+            (4, "1", "P0 number 5 is 1, not 0"),
+            (8, "0.1", "the third row is `0.1 0 1 0`, not `0 0 1 0`"),
+            (9, "-2", "the third row is `0 -2 1 0`, not `0 0 1 0`"),
+            (10, "2", "the third row is `0 0 2 0`, not `0 0 1 0`"),
+            (
+                0,
+                "-700",
+                "the focal lengths (numbers 1 and 6) are -700 and 718.856",
+            ),
+        ] {
+            let mut n = numbers.clone();
+            n[k] = value;
+            let text = format!("# camera 0\nP0: {}\n", n.join(" "));
+            let e = parse_calib_p0(&text, Path::new("seq/calib.txt"))
+                .unwrap_err()
+                .to_string();
+            assert!(e.starts_with("seq/calib.txt line 2: "), "{e}");
+            assert!(e.contains(says), "{k}: {e}");
+            assert!(
+                e.ends_with("a rectified camera-0 projection is `fx 0 cx tx 0 fy cy ty 0 0 1 0` with fx, fy > 0"),
+                "{e}"
+            );
+        }
+    }
+
+    #[test]
+    fn negative_huge_and_crowded_timestamps_name_the_file_and_line() {
+        let path = Path::new("seq/times.txt");
+        for (text, says) in [
+            (
+                "0.0\n-0.1\n",
+                "seq/times.txt line 2: timestamp -0.1 s is outside 0 to 1e9 s",
+            ),
+            (
+                "0.0\n0.1\n2e9\n",
+                "seq/times.txt line 3: timestamp 2000000000 s is outside 0 to 1e9 s",
+            ),
+            (
+                "0.0\nNaN\n",
+                "seq/times.txt line 2: \"NaN\" is not a finite number",
+            ),
+            (
+                "0.0\ninf\n",
+                "seq/times.txt line 2: \"inf\" is not a finite number",
+            ),
+            (
+                "0.0\n0.1\n0.1000001\n",
+                "seq/times.txt line 3: timestamp 0.1000001 does not increase by a microsecond",
+            ),
+            (
+                "0.0\n0.1 0.2\n",
+                "seq/times.txt line 2: expected one timestamp",
+            ),
+        ] {
+            let e = parse_times(text, path).unwrap_err().to_string();
+            assert!(e.starts_with(says), "{text:?}: {e}");
+        }
+    }
+
+    #[test]
+    fn times_for_more_or_fewer_frames_than_image_0_holds_are_refused() {
+        let d = sequence_with(&[0, 1, 2], &[(64, 48); 3]);
+        let times = d.path().join("times.txt");
+        for (n, says) in [(4, "has 4 timestamps"), (2, "has 2 timestamps")] {
+            let t: Vec<f64> = (0..n).map(|i| f64::from(i) * 0.1).collect();
+            write_times(&times, &t).unwrap();
+            let e = Sequence::open(d.path()).unwrap_err().to_string();
+            assert!(e.contains("times.txt: ") && e.contains(says), "{e}");
+            assert!(
+                e.ends_with("but image_0 holds 3 frames: one a frame"),
+                "{e}"
+            );
+        }
     }
 
     #[test]

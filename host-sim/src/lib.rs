@@ -4,13 +4,15 @@
 //! layout ([`kitti`]), the mount file users write for their vehicles ([`mount`]), the KITTI metric
 //! ([`eval`]), runs of the odometer over a sequence ([`run`]), an hour's soak of one odometer
 //! ([`soak`]), plots ([`plot`]) and the firmware example's frame store ([`frame_store`]). Outputs
-//! are written whole or not at all ([`output`]), and a Ctrl-C ends long work cleanly
-//! ([`interrupt`]). The `roadvo` binary is a thin command line over these.
+//! are written whole or not at all ([`output`]), inputs read within size limits ([`input`]), and
+//! a Ctrl-C ends long work cleanly ([`interrupt`]). The `roadvo` binary is a thin command line
+//! over these.
 
 pub mod calibrate;
 pub mod eval;
 pub mod export;
 pub mod frame_store;
+pub mod input;
 pub mod interrupt;
 pub mod kitti;
 pub mod mount;

@@ -5,6 +5,7 @@
 //! `[camera]` may be left out where the sequence carries its calibration (KITTI's `calib.txt` and
 //! the frames' size): one mount file then serves every sequence of a vehicle.
 
+use crate::input::{Input, read_text};
 use crate::kitti::Sequence;
 use anyhow::{Context, Result, bail};
 use roadvo::setting::Value;
@@ -42,18 +43,35 @@ const SECTIONS: [(&str, &[roadvo::setting::Field]); 3] = [
     ("odometer", Settings::FIELDS),
 ];
 
-/// The camera of a KITTI-layout sequence: `P0` of its `calib.txt` and its frames' size.
+/// The camera of a KITTI-layout sequence: `P0` of its `calib.txt` and its frames' size,
+/// within the ranges the odometer takes; errors name `calib.txt` (or the frames), never the
+/// mount file.
 pub fn camera_of_sequence(seq: &Sequence) -> Result<Camera> {
     let (w, h) = seq.size;
     let size = |v: u32, what| {
-        u16::try_from(v)
-            .with_context(|| format!("{} frames are {v} pixels {what}", seq.dir.display()))
+        u16::try_from(v).with_context(|| {
+            format!(
+                "{}: the frames are {v} pixels {what}, more than 65535",
+                seq.dir.join("image_0").display()
+            )
+        })
     };
     let image = ImageSize {
         width_px: size(w, "wide")?,
         height_px: size(h, "high")?,
     };
-    Ok(Camera::from_kitti_p0(image, &seq.p0.map(|x| x as f32)))
+    let camera = Camera::from_kitti_p0(image, &seq.p0.map(|x| x as f32));
+    if let Err(field) = camera.check_finite().and_then(|()| camera.check_ranges()) {
+        let value = camera
+            .get(field)
+            .map_or(String::new(), |v| format!(" {}", toml_text(v)));
+        bail!(
+            "{}: P0 gives the camera {field}{value}, outside what the odometer takes \
+             (docs/mount-file.md, [camera])",
+            seq.dir.join("calib.txt").display()
+        );
+    }
+    Ok(camera)
 }
 
 impl MountFile {
@@ -61,10 +79,16 @@ impl MountFile {
     /// unknown keys. A file without `[camera]` takes `camera` (a sequence's calibration), and is
     /// refused without.
     pub fn read(path: &Path, camera: Option<&Camera>) -> Result<Self> {
-        let text = std::fs::read_to_string(path)
-            .with_context(|| format!("cannot read mount file {}", path.display()))?;
+        let text = read_text(path, Input::Mount).context("cannot read the mount file")?;
+        Self::parse(&text, path, camera)
+    }
+
+    /// Parses the text of a mount file read from `path` (named in errors, with the line for
+    /// syntax errors and unknown keys). A file without `[camera]` takes `camera`, and is
+    /// refused without.
+    pub fn parse(text: &str, path: &Path, camera: Option<&Camera>) -> Result<Self> {
         let file: MountFileText =
-            toml::from_str(&text).with_context(|| format!("in mount file {}", path.display()))?;
+            toml::from_str(text).with_context(|| format!("in mount file {}", path.display()))?;
         let Some(camera) = file.camera.or_else(|| camera.copied()) else {
             bail!(
                 "mount file {} has no [camera] section, and there is no sequence to take the \
@@ -199,6 +223,8 @@ impl MountFile {
 /// A value as a mount file writes it: the shortest decimal that reads back to the same `f32`.
 fn toml_text(v: Value) -> String {
     match v {
+        // TOML spells it `nan`; `{:?}` would write `NaN`, which does not read back.
+        Value::F32(x) if x.is_nan() => "nan".to_owned(),
         Value::F32(x) => format!("{x:?}"),
         Value::U8(x) => x.to_string(),
         Value::U16(x) => x.to_string(),
@@ -354,6 +380,60 @@ height_m = 1.65
             assert!(e.contains(says), "{assignment}: {e}");
         }
         assert_eq!(f, before);
+    }
+
+    #[test]
+    fn a_nan_is_written_as_toml_spells_it_and_reads_back() {
+        let p = Path::new("mount.toml");
+        let text = KITTI.replace("x_m = 1.0", "x_m = nan");
+        let f = MountFile::parse(&text, p, None).unwrap();
+        let written = f.to_text(true, "");
+        assert!(written.contains("x_m = nan\n"), "{written}");
+        assert!(
+            MountFile::parse(&written, p, None)
+                .unwrap()
+                .mount
+                .x_m
+                .is_nan()
+        );
+    }
+
+    #[test]
+    fn dev_zero_as_a_mount_file_is_refused_quickly() {
+        let t = std::time::Instant::now();
+        let e = format!(
+            "{:#}",
+            MountFile::read(Path::new("/dev/zero"), None).unwrap_err()
+        );
+        assert_eq!(
+            e,
+            "cannot read the mount file: /dev/zero: larger than 1 MiB (1048576 bytes) (the \
+             limit for a mount file)"
+        );
+        assert!(t.elapsed().as_secs() < 5);
+    }
+
+    #[test]
+    fn a_calib_camera_the_odometer_refuses_is_blamed_on_calib_txt() {
+        let dir = tempfile::tempdir().unwrap();
+        let seq = Sequence {
+            dir: dir.path().join("00"),
+            frames: 1,
+            times_s: vec![0.0],
+            p0: [
+                2e5, 0.0, 600.0, 0.0, 0.0, 700.0, 180.0, 0.0, 0.0, 0.0, 1.0, 0.0,
+            ],
+            size: (1241, 376),
+        };
+        let e = format!("{:#}", camera_of_sequence(&seq).unwrap_err());
+        assert!(
+            e.starts_with(&format!(
+                "{}: P0 gives the camera fx_px 200000.0",
+                dir.path().join("00/calib.txt").display()
+            )),
+            "{e}"
+        );
+        assert!(!e.contains("mount file"), "{e}");
     }
 
     #[test]

@@ -168,12 +168,12 @@ pub struct SpeedKnot {
     pub speed_m_s: f64,
 }
 
-/// Speed at distance `s` along the path, m/s.
+/// Speed at distance `s` along the path, m/s (knots at increasing distances: a binary search).
 pub fn speed_at(knots: &[SpeedKnot], s: f64) -> f64 {
-    match knots.iter().position(|k| k.at_m > s) {
-        None => knots.last().map_or(0.0, |k| k.speed_m_s),
-        Some(0) => knots[0].speed_m_s,
-        Some(i) => {
+    match knots.partition_point(|k| k.at_m <= s) {
+        i if i == knots.len() => knots.last().map_or(0.0, |k| k.speed_m_s),
+        0 => knots[0].speed_m_s,
+        i => {
             let (a, b) = (&knots[i - 1], &knots[i]);
             a.speed_m_s + (b.speed_m_s - a.speed_m_s) * (s - a.at_m) / (b.at_m - a.at_m)
         }

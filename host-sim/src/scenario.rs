@@ -102,7 +102,15 @@
 //! offset_m = -0.5            # the road-side flank beyond the road's edge (negative: on the
 //!                            # asphalt; -0.5 leaves it just outside the edge line)
 //! ```
+//!
+//! Every number is bounded at load time, so that a render's memory and time are known before it
+//! starts: the path at most [`MAX_PATH_M`] (20 km, over at most [`MAX_SEGMENTS`] segments, none
+//! sharper than a 1 m radius), speeds at most [`MAX_SPEED_M_S`], the frame rate within
+//! [`FRAMES_PER_SECOND`], a drive at most [`MAX_DRIVE_S`] and [`MAX_FRAMES`] frames, a frame at
+//! most [`MAX_IMAGE_PIXELS`], at most [`MAX_VEHICLES`] other road users, sizes and distances
+//! beside the road at most [`MAX_EXTENT_M`]. Errors name the scenario, the key and the limit.
 
+use crate::input::{Input, read_text};
 use crate::mount::MountFile;
 use crate::path::{Segment, SpeedKnot, check_speed_profile};
 use anyhow::{Context, Result, bail};
@@ -460,6 +468,81 @@ fn merge(base: &mut toml::Table, overlay: toml::Table) {
     }
 }
 
+/// The longest path, metres (the sum of its segments): 20 km. The path is integrated every
+/// centimetre at 32 bytes a step, so it takes at most 64 MiB.
+pub const MAX_PATH_M: f64 = 20_000.0;
+/// The most `[[segment]]` entries.
+pub const MAX_SEGMENTS: usize = 1_000;
+/// The sharpest curvature of a segment, 1/m: an arc's radius is at least 1 m.
+pub const MAX_CURVATURE_PER_M: f64 = 1.0;
+/// The most `[[speed]]` entries.
+pub const MAX_SPEED_KNOTS: usize = 1_000;
+/// The fastest speed of us or another road user, along or across the road, m/s (360 km/h).
+pub const MAX_SPEED_M_S: f64 = 100.0;
+/// The frame rate's range, frames per second.
+pub const FRAMES_PER_SECOND: [f64; 2] = [0.1, 1_000.0];
+/// The longest drive, seconds: a drive that has not reached the path's end by then is refused
+/// (the distance is integrated in 1 ms steps).
+pub const MAX_DRIVE_S: f64 = 3_600.0;
+/// The most frames a drive renders (each frame's state is held until the drive is written).
+pub const MAX_FRAMES: usize = 100_000;
+/// The most pixels of a frame (2048 x 2048); rendering holds one frame a thread.
+pub const MAX_IMAGE_PIXELS: u32 = 2048 * 2048;
+/// The most `[[vehicle]]` entries.
+pub const MAX_VEHICLES: usize = 32;
+/// The largest distance across the scene, metres: lateral offsets, sizes, setbacks, gaps,
+/// spacings and heights of anything placed beside the road.
+pub const MAX_EXTENT_M: f64 = 1_000.0;
+/// The largest angle written in degrees: suspension amplitudes, calibration errors.
+pub const MAX_ANGLE_DEG: f64 = 90.0;
+/// The highest suspension frequency, Hz.
+pub const MAX_FREQUENCY_HZ: f64 = 100.0;
+
+/// Checks that `key` is a number within `lo..=hi`, either of which may be infinite (`unit`
+/// after the numbers, for messages).
+fn within(key: &str, x: f64, [lo, hi]: [f64; 2], unit: &str) -> Result<()> {
+    if !(lo..=hi).contains(&x) {
+        let limits = match (lo.is_finite(), hi.is_finite()) {
+            (false, _) => format!("is more than {hi}{unit}, the limit"),
+            (_, false) => format!("is less than {lo}{unit}, the limit"),
+            _ => format!("is outside {lo} to {hi}{unit}, the limits"),
+        };
+        bail!("{key} = {x} {limits} of a scenario");
+    }
+    Ok(())
+}
+
+/// Checks that a list of `what` holds at most `max` entries.
+fn at_most(what: &str, n: usize, max: usize) -> Result<()> {
+    if n > max {
+        bail!("{n} {what} entries, more than the limit of {max}");
+    }
+    Ok(())
+}
+
+/// `x` within `-max..=max`.
+fn plus_minus(max: f64) -> [f64; 2] {
+    [-max, max]
+}
+
+/// The length of a segment, metres, and its curvature at either end, 1/m.
+fn segment_shape(seg: &Segment, k_before: f64) -> (f64, f64, f64) {
+    match *seg {
+        Segment::Straight { length_m } => (length_m, 0.0, 0.0),
+        Segment::Arc {
+            radius_m,
+            angle_deg,
+        } => {
+            let k = angle_deg.signum() / radius_m;
+            (radius_m * angle_deg.to_radians().abs(), k, k)
+        }
+        Segment::Clothoid {
+            length_m,
+            end_curvature_per_m,
+        } => (length_m, k_before, end_curvature_per_m),
+    }
+}
+
 impl Scenario {
     /// The TOML text of a built-in scenario, with its comments.
     pub fn built_in_text(name: &str) -> Result<&'static str> {
@@ -476,22 +559,24 @@ impl Scenario {
 
     /// A built-in scenario by name.
     pub fn built_in(name: &str) -> Result<Self> {
-        Self::parse(Self::built_in_text(name)?).with_context(|| format!("built-in scenario {name}"))
+        Self::parse(
+            Self::built_in_text(name)?,
+            &format!("built-in scenario {name}"),
+        )
     }
 
     /// A scenario (built-in name or file) with overlays (built-in names or files) merged over
-    /// it in order.
+    /// it in order. Files are read up to [`MAX_SCENARIO_BYTES`](crate::input::MAX_SCENARIO_BYTES).
     pub fn load(name: &str, overlays: &[String]) -> Result<Self> {
         let text = |name: &str, builtin: &dyn Fn(&str) -> Option<&'static str>| -> Result<String> {
             let path = Path::new(name);
             match builtin(name) {
                 Some(t) if !path.exists() => Ok(t.to_string()),
-                _ => std::fs::read_to_string(path).with_context(|| {
-                    format!(
-                        "cannot read {} (and no built-in of that name)",
-                        path.display()
-                    )
-                }),
+                _ if !path.exists() => bail!(
+                    "{}: no such file (and no built-in of that name)",
+                    path.display()
+                ),
+                _ => Ok(read_text(path, Input::Scenario)?),
             }
         };
         let base_text = text(name, &|n| Self::built_in_text(n).ok())?;
@@ -509,50 +594,144 @@ impl Scenario {
                 toml::from_str(&overlay_text).with_context(|| format!("in overlay {o}"))?;
             merge(&mut table, overlay);
         }
-        let s: Scenario = table
-            .try_into()
-            .with_context(|| format!("scenario {name} with overlays {overlays:?}"))?;
-        s.check()?;
+        let origin = if overlays.is_empty() {
+            format!("scenario {name}")
+        } else {
+            format!("scenario {name} with overlays {overlays:?}")
+        };
+        let s: Scenario = table.try_into().with_context(|| origin.clone())?;
+        s.check().with_context(|| origin)?;
         Ok(s)
     }
 
-    fn parse(text: &str) -> Result<Self> {
-        let s: Scenario = toml::from_str(text)?;
-        s.check()?;
+    /// Parses a scenario's TOML text and checks it, every length, speed, count and size
+    /// within the limits above (so that rendering it takes known memory and time); `origin`
+    /// names the text in errors (a file's path, or `built-in scenario NAME`).
+    pub fn parse(text: &str, origin: &str) -> Result<Self> {
+        let s: Scenario = toml::from_str(text).with_context(|| format!("in {origin}"))?;
+        s.check().with_context(|| origin.to_owned())?;
         Ok(s)
     }
 
     fn check(&self) -> Result<()> {
-        if !(self.frames_per_second.is_finite() && self.frames_per_second > 0.0) {
-            bail!("frames_per_second must be positive");
-        }
-        if self.render.supersample == 0 || self.render.supersample > 8 {
-            bail!("render.supersample must be 1 to 8");
-        }
-        let r = &self.render;
-        if !(r.noise_dn >= 0.0 && r.texture_density >= 0.0 && r.bare_half_width_m >= 0.0) {
+        within(
+            "frames_per_second",
+            self.frames_per_second,
+            FRAMES_PER_SECOND,
+            " frames a second",
+        )?;
+        let pixels = u32::from(self.camera.width_px) * u32::from(self.camera.height_px);
+        if pixels > MAX_IMAGE_PIXELS {
             bail!(
-                "render.noise_dn, render.texture_density and render.bare_half_width_m must be >= 0"
+                "[camera]: {}x{} is {pixels} pixels, more than the limit of {MAX_IMAGE_PIXELS}",
+                self.camera.width_px,
+                self.camera.height_px
             );
         }
+        if self.render.supersample == 0 || self.render.supersample > 8 {
+            bail!("[render] supersample must be 1 to 8");
+        }
+        let r = &self.render;
+        within(
+            "[render] noise_dn",
+            r.noise_dn,
+            [0.0, 255.0],
+            " grey levels",
+        )?;
+        within("[render] lane_width_m", r.lane_width_m, [0.5, 50.0], " m")?;
+        within(
+            "[render] texture_density",
+            r.texture_density,
+            [0.0, 100.0],
+            "",
+        )?;
+        within(
+            "[render] bare_half_width_m",
+            r.bare_half_width_m,
+            [0.0, MAX_EXTENT_M],
+            " m",
+        )?;
+        self.check_path()?;
+        at_most("[[speed]]", self.speed.len(), MAX_SPEED_KNOTS)?;
         check_speed_profile(&self.speed)?;
-        for (i, v) in self.vehicles.iter().enumerate() {
-            if !(v.length_m > 0.0 && v.width_m > 0.0 && v.height_m > 0.0) {
-                bail!("[[vehicle]] {}: sizes must be positive", i + 1);
-            }
-            if !v.cross_speed_m_s.is_finite() {
-                bail!("[[vehicle]] {}: cross_speed_m_s must be finite", i + 1);
+        for (i, k) in self.speed.iter().enumerate() {
+            let key = |name| format!("[[speed]] {}: {name}", i + 1);
+            within(&key("at_m"), k.at_m, plus_minus(MAX_PATH_M), " m")?;
+            within(&key("speed_m_s"), k.speed_m_s, [0.0, MAX_SPEED_M_S], " m/s")?;
+        }
+        let sus = &self.suspension;
+        for (key, x, range, unit) in [
+            (
+                "pitch_amplitude_deg",
+                sus.pitch_amplitude_deg,
+                plus_minus(MAX_ANGLE_DEG),
+                " deg",
+            ),
+            (
+                "roll_amplitude_deg",
+                sus.roll_amplitude_deg,
+                plus_minus(MAX_ANGLE_DEG),
+                " deg",
+            ),
+            (
+                "pitch_frequency_hz",
+                sus.pitch_frequency_hz,
+                [0.0, MAX_FREQUENCY_HZ],
+                " Hz",
+            ),
+            (
+                "roll_frequency_hz",
+                sus.roll_frequency_hz,
+                [0.0, MAX_FREQUENCY_HZ],
+                " Hz",
+            ),
+        ] {
+            within(&format!("[suspension] {key}"), x, range, unit)?;
+        }
+        self.check_vehicles()?;
+        if let Some(slip) = &self.slip {
+            within(
+                "[slip] pivot_s2_per_m",
+                slip.pivot_s2_per_m,
+                [0.0, 1.0],
+                " s^2/m",
+            )?;
+        }
+        if let Some(k) = &self.kerb {
+            within("[kerb] from_m", k.from_m, plus_minus(MAX_EXTENT_M), " m")?;
+            within("[kerb] to_m", k.to_m, plus_minus(MAX_EXTENT_M), " m")?;
+            within("[kerb] height_m", k.height_m, plus_minus(10.0), " m")?;
+            if k.to_m <= k.from_m {
+                bail!("[kerb]: to_m must be greater than from_m");
             }
         }
-        if let Some(slip) = &self.slip
-            && !(slip.pivot_s2_per_m.is_finite() && slip.pivot_s2_per_m >= 0.0)
-        {
-            bail!("[slip]: pivot_s2_per_m must be finite and >= 0");
+        if let Some(c) = &self.crown {
+            within(
+                "[crown] left_from_m",
+                c.left_from_m,
+                plus_minus(MAX_EXTENT_M),
+                " m",
+            )?;
+            within(
+                "[crown] right_from_m",
+                c.right_from_m,
+                plus_minus(MAX_EXTENT_M),
+                " m",
+            )?;
+            within("[crown] left_slope", c.left_slope, plus_minus(1.0), "")?;
+            within("[crown] right_slope", c.right_slope, plus_minus(1.0), "")?;
         }
-        if let Some(k) = &self.kerb
-            && (k.to_m.is_nan() || k.to_m <= k.from_m)
-        {
-            bail!("[kerb]: to_m must be greater than from_m");
+        let e = &self.calibration_error;
+        for (key, x, max, unit) in [
+            ("x_m", e.x_m, 10.0, " m"),
+            ("y_m", e.y_m, 10.0, " m"),
+            ("height_m", e.height_m, 10.0, " m"),
+            ("yaw_deg", e.yaw_deg, MAX_ANGLE_DEG, " deg"),
+            ("pitch_deg", e.pitch_deg, MAX_ANGLE_DEG, " deg"),
+            ("roll_deg", e.roll_deg, MAX_ANGLE_DEG, " deg"),
+        ] {
+            let key = format!("[calibration_error] {key}");
+            within(&key, f64::from(x), plus_minus(max), unit)?;
         }
         self.check_structures()?;
         // The true mount must make a valid odometer configuration.
@@ -563,19 +742,127 @@ impl Scenario {
         Ok(())
     }
 
+    /// The path's length, metres: the sum of its segments' (without integrating them).
+    pub fn total_length_m(&self) -> f64 {
+        let mut k_end = 0.0;
+        self.segments
+            .iter()
+            .map(|seg| {
+                let (length, _, k1) = segment_shape(seg, k_end);
+                k_end = k1;
+                length
+            })
+            .sum()
+    }
+
+    /// The path's segments: each of positive length, their sum at most [`MAX_PATH_M`], their
+    /// curvature at most [`MAX_CURVATURE_PER_M`].
+    fn check_path(&self) -> Result<()> {
+        at_most("[[segment]]", self.segments.len(), MAX_SEGMENTS)?;
+        if self.segments.is_empty() {
+            bail!("the path has no [[segment]] entries");
+        }
+        let (mut total, mut k_end) = (0.0, 0.0);
+        for (i, seg) in self.segments.iter().enumerate() {
+            let key = |name| format!("[[segment]] {}: {name}", i + 1);
+            if let Segment::Arc { radius_m, .. } = seg {
+                within(
+                    &key("radius_m"),
+                    *radius_m,
+                    [1.0 / MAX_CURVATURE_PER_M, f64::INFINITY],
+                    " m",
+                )?;
+            }
+            if let Segment::Clothoid {
+                end_curvature_per_m,
+                ..
+            } = seg
+            {
+                let k = *end_curvature_per_m;
+                within(
+                    &key("end_curvature_per_m"),
+                    k,
+                    plus_minus(MAX_CURVATURE_PER_M),
+                    " per m",
+                )?;
+            }
+            let (length, _, k1) = segment_shape(seg, k_end);
+            if !(length > 0.0 && length <= MAX_PATH_M) {
+                bail!(
+                    "{}: its length is {length} m, outside 0 (not included) to {MAX_PATH_M} m, \
+                     the limits of a scenario",
+                    key("length")
+                );
+            }
+            total += length;
+            if total > MAX_PATH_M {
+                bail!(
+                    "[[segment]] 1 to {}: the path is {total} m long, more than the limit of \
+                     {MAX_PATH_M} m",
+                    i + 1
+                );
+            }
+            k_end = k1;
+        }
+        Ok(())
+    }
+
+    fn check_vehicles(&self) -> Result<()> {
+        at_most("[[vehicle]]", self.vehicles.len(), MAX_VEHICLES)?;
+        for (i, v) in self.vehicles.iter().enumerate() {
+            let key = |name| format!("[[vehicle]] {}: {name}", i + 1);
+            let extent = plus_minus(MAX_EXTENT_M);
+            let speed = plus_minus(MAX_SPEED_M_S);
+            within(&key("lateral_m"), v.lateral_m, extent, " m")?;
+            within(&key("ahead_m"), v.ahead_m, plus_minus(MAX_PATH_M), " m")?;
+            within(&key("speed_m_s"), v.speed_m_s.unwrap_or(0.0), speed, " m/s")?;
+            within(&key("cross_speed_m_s"), v.cross_speed_m_s, speed, " m/s")?;
+            within(
+                &key("appear_s"),
+                v.appear_s,
+                [f64::NEG_INFINITY, MAX_DRIVE_S],
+                " s",
+            )?;
+            if v.disappear_s.is_nan() {
+                bail!("{}: not a number", key("disappear_s"));
+            }
+            for (name, x) in [
+                ("length_m", v.length_m),
+                ("width_m", v.width_m),
+                ("height_m", v.height_m),
+            ] {
+                within(&key(name), x, [0.01, MAX_EXTENT_M], " m")?;
+            }
+        }
+        Ok(())
+    }
+
     fn check_structures(&self) -> Result<()> {
-        // A [min, max] range: finite, ordered, at least `floor`.
+        // A [min, max] range: ordered, from `floor` to MAX_EXTENT_M.
         let range = |table: &str, key: &str, r: [f64; 2], floor: f64| -> Result<()> {
-            if !(r[0].is_finite() && r[1].is_finite() && r[0] >= floor && r[1] >= r[0]) {
-                bail!("[{table}]: {key} must be [min, max] with {floor} <= min <= max");
+            if !(r[0] >= floor && r[1] >= r[0] && r[1] <= MAX_EXTENT_M) {
+                bail!(
+                    "[{table}] {key} must be [min, max] with {floor} <= min <= max <= \
+                     {MAX_EXTENT_M}, the limits of a scenario"
+                );
             }
             Ok(())
         };
-        let finite = |table: &str, key: &str, x: f64| -> Result<()> {
-            if !x.is_finite() {
-                bail!("[{table}]: {key} must be finite");
-            }
-            Ok(())
+        let offset = |table: &str, x: f64| {
+            within(
+                &format!("[{table}] offset_m"),
+                x,
+                plus_minus(MAX_EXTENT_M),
+                " m",
+            )
+        };
+        let spacing = |table: &str, x: f64| {
+            within(
+                &format!("[{table}] spacing_m"),
+                x,
+                [1.0, MAX_EXTENT_M],
+                " m",
+            )
         };
         if let Some(f) = &self.facades {
             range("facades", "setback_m", f.setback_m, 0.0)?;
@@ -585,23 +872,17 @@ impl Scenario {
             range("facades", "depth_m", f.depth_m, 1.0)?;
         }
         if let Some(p) = &self.poles {
-            finite("poles", "offset_m", p.offset_m)?;
-            if !(p.spacing_m.is_finite() && p.spacing_m >= 1.0) {
-                bail!("[poles]: spacing_m must be at least 1");
-            }
-            if !(0.0..=1.0).contains(&p.sign_fraction) {
-                bail!("[poles]: sign_fraction must be within 0 to 1");
-            }
+            offset("poles", p.offset_m)?;
+            spacing("poles", p.spacing_m)?;
+            within("[poles] sign_fraction", p.sign_fraction, [0.0, 1.0], "")?;
         }
         if let Some(t) = &self.trees {
-            finite("trees", "offset_m", t.offset_m)?;
-            if !(t.spacing_m.is_finite() && t.spacing_m >= 1.0) {
-                bail!("[trees]: spacing_m must be at least 1");
-            }
+            offset("trees", t.offset_m)?;
+            spacing("trees", t.spacing_m)?;
             range("trees", "height_m", t.height_m, 2.0)?;
         }
         if let Some(p) = &self.parked {
-            finite("parked", "offset_m", p.offset_m)?;
+            offset("parked", p.offset_m)?;
             range("parked", "gap_m", p.gap_m, 0.0)?;
         }
         Ok(())
@@ -645,7 +926,7 @@ mod tests {
     fn built_ins_parse_and_round_trip() {
         for name in BUILT_IN {
             let s = Scenario::built_in(name).unwrap();
-            let again = Scenario::parse(&s.to_toml().unwrap()).unwrap();
+            let again = Scenario::parse(&s.to_toml().unwrap(), name).unwrap();
             assert_eq!(s, again, "{name}");
         }
         assert!(Scenario::built_in("nope").is_err());
@@ -670,8 +951,8 @@ mod tests {
     fn a_negative_slip_is_refused() {
         let mut text = Scenario::built_in_text("kitti-like").unwrap().to_string();
         text.push_str("\n[slip]\npivot_s2_per_m = -0.001\n");
-        let err = Scenario::parse(&text).unwrap_err();
-        assert!(err.to_string().contains("[slip]"), "{err}");
+        let err = Scenario::parse(&text, "test").unwrap_err();
+        assert!(format!("{err:#}").contains("[slip]"), "{err}");
     }
 
     #[test]
@@ -689,7 +970,7 @@ mod tests {
         }
         let mut text = Scenario::built_in_text("kitti-like").unwrap().to_string();
         text.push_str("\n[facades]\n[poles]\nsides = \"left\"\n[trees]\n[parked]\n");
-        let s = Scenario::parse(&text).unwrap();
+        let s = Scenario::parse(&text, "test").unwrap();
         assert_eq!(s.facades, Some(Facades::default()));
         assert_eq!(s.poles.as_ref().map(|p| p.sides), Some(Sides::Left));
         assert_eq!(s.parked.as_ref().map(|p| p.sides), Some(Sides::Right));
@@ -702,12 +983,111 @@ mod tests {
         ] {
             let mut text = Scenario::built_in_text("kitti-like").unwrap().to_string();
             text.push_str(&format!("\n[{table}]\n{bad}\n"));
-            let err = Scenario::parse(&text).unwrap_err();
+            let err = Scenario::parse(&text, "test").unwrap_err();
             assert!(
-                err.to_string().contains(&format!("[{table}]")),
+                format!("{err:#}").contains(&format!("[{table}]")),
                 "{bad}: {err}"
             );
         }
+    }
+
+    /// The error of kitti-like with `extra` appended (or its `from` replaced by `to`).
+    fn refused(edit: &dyn Fn(&str) -> String) -> String {
+        let text = edit(Scenario::built_in_text("kitti-like").unwrap());
+        format!("{:#}", Scenario::parse(&text, "big.toml").unwrap_err())
+    }
+
+    #[test]
+    fn lengths_speeds_counts_and_sizes_beyond_the_limits_are_refused_with_their_key() {
+        let first_straight = "kind = \"straight\"\nlength_m = 60.0";
+        for (edit, says) in [
+            (
+                (first_straight, "kind = \"straight\"\nlength_m = 1e7"),
+                "big.toml: [[segment]] 1: length: its length is 10000000 m, outside 0 (not \
+                 included) to 20000 m",
+            ),
+            (
+                (first_straight, "kind = \"straight\"\nlength_m = 1e30"),
+                "big.toml: [[segment]] 1: length: its length is 1000000000000000000000000000000 m",
+            ),
+            (
+                (first_straight, "kind = \"straight\"\nlength_m = 19900.0"),
+                "big.toml: [[segment]] 1 to 5: the path is 20061.887902047863 m long, more than \
+                 the limit of 20000 m",
+            ),
+            (
+                ("radius_m = 40.0", "radius_m = 0.5"),
+                "big.toml: [[segment]] 3: radius_m = 0.5 is less than 1 m, the limit of a scenario",
+            ),
+            (
+                ("speed_m_s = 9.0", "speed_m_s = 1e9"),
+                "big.toml: [[speed]] 1: speed_m_s = 1000000000 is outside 0 to 100 m/s",
+            ),
+            (
+                ("frames_per_second = 10.0", "frames_per_second = 1e-9"),
+                "big.toml: frames_per_second = 0.000000001 is outside 0.1 to 1000",
+            ),
+            (
+                ("width_px = 1241", "width_px = 60000"),
+                "big.toml: [camera]: 60000x376 is 22560000 pixels, more than the limit of 4194304",
+            ),
+        ] {
+            let e = refused(&|t| t.replacen(edit.0, edit.1, 1));
+            assert!(e.starts_with(says), "{edit:?}: {e}");
+        }
+        // The path's total is checked before it is integrated.
+        let e = refused(&|t| t.replace("length_m = 80.0", "length_m = 15000.0"));
+        assert!(e.contains("more than the limit of 20000 m"), "{e}");
+        for (extra, says) in [
+            (
+                "[[vehicle]]\nlateral_m = 0.0\nahead_m = 10.0\nappear_s = 1e30\n",
+                "big.toml: [[vehicle]] 1: appear_s = 1000000000000000000000000000000 is more \
+                 than 3600 s, the limit of a scenario",
+            ),
+            (
+                "[suspension]\npitch_frequency_hz = 1e300\n",
+                "big.toml: [suspension] pitch_frequency_hz = 1000000",
+            ),
+            (
+                "[trees]\nspacing_m = 1e6\n",
+                "big.toml: [trees] spacing_m = 1000000 is outside 1 to 1000 m",
+            ),
+            (
+                "[facades]\nheight_m = [6.0, 1e9]\n",
+                "big.toml: [facades] height_m must be [min, max] with 1 <= min <= max <= 1000",
+            ),
+            (
+                "[render]\nlane_width_m = 0.0\n",
+                "big.toml: [render] lane_width_m = 0 is outside 0.5 to 50 m",
+            ),
+            (
+                &"[[vehicle]]\nlateral_m = 0.0\nahead_m = 10.0\n".repeat(MAX_VEHICLES + 1),
+                "big.toml: 33 [[vehicle]] entries, more than the limit of 32",
+            ),
+        ] {
+            let e = refused(&|t| format!("{t}\n{extra}"));
+            assert!(e.starts_with(says), "{extra}: {e}");
+        }
+    }
+
+    #[test]
+    fn a_scenario_file_over_its_size_limit_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("huge.toml");
+        std::fs::File::create(&p)
+            .unwrap()
+            .set_len(crate::input::MAX_SCENARIO_BYTES + 1)
+            .unwrap();
+        let e = format!(
+            "{:#}",
+            Scenario::load(p.to_str().unwrap(), &[]).unwrap_err()
+        );
+        assert!(
+            e.contains(
+                "huge.toml: larger than 1 MiB (1048576 bytes) (the limit for a scenario file)"
+            ),
+            "{e}"
+        );
     }
 
     #[test]

@@ -17,7 +17,7 @@ use crate::kitti::{self, Pose};
 use crate::output::StagingDir;
 use crate::path::{DistanceClock, Path, WorldPose, speed_at};
 use crate::render::{BoxState, FrameState, Scene};
-use crate::scenario::Scenario;
+use crate::scenario::{MAX_DRIVE_S, MAX_FRAMES, Scenario};
 use anyhow::{Context, Result, bail};
 use rayon::prelude::*;
 use roadvo::{Attitude, Pose2};
@@ -64,12 +64,23 @@ pub(crate) fn plan(
 ) -> Result<Drive> {
     let fps = scenario.frames_per_second;
     let length = path.length_m();
+    if let Some(n) = frames
+        && n > MAX_FRAMES
+    {
+        bail!("--frames {n}: a drive renders at most {MAX_FRAMES} frames");
+    }
     // Frames until the path ends, unless a number is asked for.
-    const MAX_FRAMES: usize = 100_000;
     let mut clock = DistanceClock::new(&scenario.speed);
     let (mut times_s, mut dist) = (Vec::new(), Vec::new());
     for i in 0..frames.unwrap_or(MAX_FRAMES) {
         let t = i as f64 / fps;
+        if t > MAX_DRIVE_S {
+            bail!(
+                "scenario {}: frame {i} would be at {t:.1} s, beyond the longest drive of \
+                 {MAX_DRIVE_S} s (the path is {length:.1} m long; is the speed too low?)",
+                scenario.name
+            );
+        }
         let s = clock.advance_to(t);
         if s > length + 1e-9 {
             if let Some(n) = frames {

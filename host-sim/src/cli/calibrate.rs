@@ -1,7 +1,7 @@
 //! `roadvo calibrate`.
 
 use super::SequenceArgs;
-use anyhow::Result;
+use anyhow::{Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use roadvo_sim::calibrate::{Metric, calibrate};
 use roadvo_sim::kitti::read_poses;
@@ -53,6 +53,15 @@ impl CalibrateArgs {
     pub fn run(self) -> Result<()> {
         let (seq, start) = self.seq.open()?;
         let poses = read_poses(&self.gt)?;
+        if poses.len() != seq.frames {
+            bail!(
+                "{}: {} ground-truth poses but {} holds {} frames: one a frame",
+                self.gt.display(),
+                poses.len(),
+                self.seq.seq_dir.join("image_0").display(),
+                seq.frames
+            );
+        }
         let section = self.frames.unwrap_or(0..seq.frames);
         let bar = ProgressBar::new(self.max_runs as u64).with_style(
             ProgressStyle::with_template("calibrating {bar:40} {pos}/{len} mounts {msg}")
