@@ -197,6 +197,15 @@ pub fn sensitivity(
     settings: &[String],
     mut progress: impl FnMut(&str),
 ) -> Result<Vec<Row>> {
+    // The settings are checked on the course's own mount before anything is rendered.
+    let mut mount = Scenario::built_in("s-course")?.mount_file(true);
+    for s in settings {
+        mount.set(s)?;
+    }
+    mount
+        .to_config()
+        .validate()
+        .map_err(crate::run::config_error)?;
     let mut rows = Vec::new();
     // Cases that share a drive come together: each drive is rendered and decoded once.
     for group in cases().chunk_by(|a, b| a.drive().0 == b.drive().0) {

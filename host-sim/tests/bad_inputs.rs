@@ -184,6 +184,107 @@ fn cases(dir: &Path) -> Vec<Case> {
         unchanged: vec![],
     });
 
+    // Surplus and nonsense in the sequence's files.
+    let edited = |name: &str, file: &str, edit: &dyn Fn(String) -> String| {
+        let copy = copy_of(&seq, dir, name);
+        let text = std::fs::read_to_string(copy.join(file)).unwrap();
+        write(&copy.join(file), &edit(text));
+        copy
+    };
+    // P0's second number, the skew, made 5.
+    let skewed = edited("skewed", "calib.txt", &|t| {
+        let mut words: Vec<&str> = t.split_whitespace().collect();
+        words[2] = "5";
+        words.join(" ") + "\n"
+    });
+    let two_p0 = edited("two-p0", "calib.txt", &|t| {
+        t + "P0: 1 0 0 0 0 1 0 0 0 0 1 0\n"
+    });
+    let surplus_times = edited("surplus-times", "times.txt", &|t| t + "1.3\n");
+    let negative_time = edited("negative-time", "times.txt", &|t| {
+        t.replacen("0.000000e0", "-0.1", 1)
+    });
+    let mut doubled = std::fs::read_to_string(root.join("poses/00.txt")).unwrap();
+    doubled += &doubled.clone();
+    let doubled = write(&dir.join("doubled.txt"), &doubled);
+    let scenario = write(
+        &dir.join("long.toml"),
+        &std::fs::read_to_string(seq.join("scenario.toml"))
+            .unwrap()
+            .replacen("length_m = 30.0", "length_m = 1e7", 1),
+    );
+    cases.extend([
+        Case {
+            name: "calib.txt with skew",
+            args: args(&["run", &s(&skewed), "--out", &s(&est)]),
+            says: vec!["skewed/calib.txt line 1".into(), "skewed camera".into()],
+            unchanged: vec![],
+        },
+        Case {
+            name: "calib.txt with a second P0",
+            args: args(&["run", &s(&two_p0), "--out", &s(&est)]),
+            says: vec!["two-p0/calib.txt line 2".into(), "second `P0:`".into()],
+            unchanged: vec![],
+        },
+        Case {
+            name: "more timestamps than frames",
+            args: args(&["run", &s(&surplus_times), "--out", &s(&est)]),
+            says: vec!["surplus-times/times.txt".into(), "13 timestamps".into()],
+            unchanged: vec![],
+        },
+        Case {
+            name: "a negative timestamp",
+            args: args(&["run", &s(&negative_time), "--out", &s(&est)]),
+            says: vec!["negative-time/times.txt line 1".into(), "-0.1".into()],
+            unchanged: vec![],
+        },
+        Case {
+            name: "calibrate with more ground truth than frames",
+            args: args(&[
+                "calibrate",
+                &s(&seq),
+                "--gt",
+                &s(&doubled),
+                "--out",
+                &s(&est),
+            ]),
+            says: vec!["doubled.txt".into(), "24 ground-truth poses".into()],
+            unchanged: vec![],
+        },
+        Case {
+            name: "sensitivity --set with an unknown key, before any rendering",
+            args: args(&[
+                "sensitivity",
+                "--set",
+                "bogus=1",
+                "--out",
+                &s(&dir.join("sens")),
+            ]),
+            says: vec!["--set bogus=1".into(), "no key `bogus`".into()],
+            unchanged: vec![],
+        },
+        Case {
+            name: "/dev/zero as the mount file",
+            args: args(&["run", &s(&seq), "--mount", "/dev/zero", "--out", &s(&est)]),
+            says: vec!["/dev/zero".into(), "larger than".into()],
+            unchanged: vec![],
+        },
+        Case {
+            name: "a scenario segment of 1e7 m",
+            args: args(&[
+                "simulate",
+                "--scenario",
+                &s(&scenario),
+                "--frames",
+                "3",
+                "--out",
+                &s(&dir.join("long")),
+            ]),
+            says: vec!["long.toml".into(), "length".into(), "20000 m".into()],
+            unchanged: vec![],
+        },
+    ]);
+
     // Resources bounded.
     let huge = copy_of(&seq, dir, "huge");
     std::fs::write(huge.join("image_0/000000.png"), png_header(20_000, 20_000)).unwrap();
