@@ -7,7 +7,7 @@ use crate::harris::{self, Corners, HarrisScratch};
 use crate::method::{self, Estimator, Prior};
 use crate::motion::{Motion, Pose2};
 use crate::time::{Duration, Instant};
-use crate::tracks::Tracks;
+use crate::tracks::{Track, Tracks};
 use core::fmt;
 
 /// Why a frame was refused. A refused frame leaves the odometer as it was.
@@ -242,6 +242,14 @@ impl<
     /// The configuration in use.
     pub fn config(&self) -> &ValidConfig {
         &self.config
+    }
+
+    /// The tracked ground features after the last frame, for inspection (a debug view): each
+    /// one's position on the road in the vehicle frame of that frame (measured from the pivot
+    /// where the configuration has one, `pivot_s2_per_m`), where it was seen, its misses and its
+    /// age. A track of age 0 started in that frame; one with no misses was matched in it.
+    pub fn tracks(&self) -> &[Track] {
+        self.tracks.as_slice()
     }
 
     /// Forgets every frame: the next one starts a new trajectory at the origin.

@@ -5,7 +5,8 @@
 //! ([`eval`]), runs of the odometer over a sequence ([`run`]), an hour's soak of one odometer
 //! ([`soak`]), plots ([`plot`]) and the firmware example's frame store ([`frame_store`]). Outputs
 //! are written whole or not at all ([`output`]), inputs read within size limits ([`input`]), and
-//! a Ctrl-C ends long work cleanly ([`interrupt`]). The `roadvo` binary is a thin command line
+//! a Ctrl-C ends long work cleanly ([`interrupt`]); [`view`] draws what the odometer sees. The
+//! `roadvo` binary is a thin command line
 //! over these.
 
 pub mod calibrate;
@@ -25,6 +26,7 @@ pub mod scenario;
 pub mod sensitivity;
 pub mod simulate;
 pub mod soak;
+pub mod view;
 
 /// Hears of long work: [`start`](Self::start) once with the number of steps, then
 /// [`step`](Self::step) as each is done, possibly from several threads. The command line shows

@@ -9,7 +9,8 @@ use plotters::prelude::*;
 use std::path::Path;
 use std::sync::Once;
 
-fn register_font() {
+/// Registers the compiled-in font once, for every plot and picture with text.
+pub(crate) fn register_font() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         // The font is a valid TTF compiled into the binary; failure would show as missing text.

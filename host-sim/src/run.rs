@@ -152,6 +152,19 @@ pub fn run_frames(
     bad: BadFrames,
     mut each: impl FnMut(usize, Estimate, Instant, Duration) -> Result<()>,
 ) -> Result<Ran> {
+    run_frames_inspected(source, config, bad, |i, est, t, took, _| {
+        each(i, est, t, took)
+    })
+}
+
+/// [`run_frames`], with `each` also seeing the odometer after the frame (its tracks, for a
+/// debug view).
+pub fn run_frames_inspected(
+    source: &impl FrameSource,
+    config: ValidConfig,
+    bad: BadFrames,
+    mut each: impl FnMut(usize, Estimate, Instant, Duration, &Odometer) -> Result<()>,
+) -> Result<Ran> {
     let mut odo: Box<Odometer> = Box::new(Odometer::new(config).map_err(config_error)?);
     let mut ran = Ran {
         timing: Timing::default(),
@@ -176,7 +189,7 @@ pub fn run_frames(
         let took = t1.elapsed();
         ran.timing.odometry += took;
         match est {
-            Ok((est, t)) => each(i, est, t, took)?,
+            Ok((est, t)) => each(i, est, t, took, &odo)?,
             Err(cause) => {
                 let skipped = Skipped { frame: i, cause };
                 match bad {

@@ -288,3 +288,33 @@ fn calibrating_on_the_kitti_metric_asks_for_100_m() {
     );
     assert!(!out.exists());
 }
+
+#[test]
+fn view_writes_a_picture_of_every_nth_frame_with_its_panel() {
+    let dir = tempfile::tempdir().unwrap();
+    simulate("s-course", dir.path(), 12);
+    let seq = dir.path().join("sequences/00");
+    let out = dir.path().join("view");
+    roadvo(&[
+        "view",
+        seq.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--every",
+        "5",
+        "--no-video",
+    ]);
+    let mut names: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["000000.png", "000005.png", "000010.png"]);
+    let frame = image::open(seq.join("image_0/000005.png")).unwrap();
+    let picture = image::open(out.join("000005.png")).unwrap().into_rgb8();
+    assert!(picture.width() > frame.width() && picture.height() >= frame.height());
+    // Tracks are drawn in their fates' colours (matched, new, carried).
+    let fates = [[44, 200, 44], [255, 200, 0], [230, 40, 40]];
+    let tracks = picture.pixels().filter(|p| fates.contains(&p.0)).count();
+    assert!(tracks > 100, "{tracks} pixels of tracks");
+}

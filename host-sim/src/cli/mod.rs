@@ -11,6 +11,7 @@ mod run;
 mod sensitivity;
 mod simulate;
 mod soak;
+mod view;
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
@@ -62,6 +63,9 @@ pub enum Command {
     Sensitivity(sensitivity::SensitivityArgs),
     /// Render the paper's s-course, run both methods, evaluate, and plot: the default demo.
     Demo(demo::DemoArgs),
+    /// Write what the odometer sees, frame by frame: the ground window, the tracks by fate, a
+    /// bird's-eye view and the frame's quality (and a video where ffmpeg is installed).
+    View(view::ViewArgs),
     /// An hour of driving (36,000 frames) through one odometer: time per frame at both ends,
     /// counters, the odometer's size, the f32 pose's rounding.
     Soak(soak::SoakArgs),
@@ -80,6 +84,7 @@ impl Command {
             Self::Bench(a) => a.run(),
             Self::Sensitivity(a) => a.run(),
             Self::Demo(a) => a.run(),
+            Self::View(a) => a.run(),
             Self::Soak(a) => a.run(),
         }
     }
