@@ -42,8 +42,12 @@ const SECTIONS: [(&str, &[roadvo::setting::Field]); 3] = [
     ("odometer", Settings::FIELDS),
 ];
 
-/// The camera of a KITTI-layout sequence: `P0` of its `calib.txt` and its frames' size.
+/// The camera of a KITTI-layout sequence: `P0` of its `calib.txt` and its frames' size; an
+/// error for a sequence without `calib.txt` (a video, a folder of frames).
 pub fn camera_of_sequence(seq: &Sequence) -> Result<Camera> {
+    let Some(p0) = seq.p0 else {
+        bail!("{}", crate::input::no_calibration(seq));
+    };
     let (w, h) = seq.size;
     let size = |v: u32, what| {
         u16::try_from(v)
@@ -53,7 +57,7 @@ pub fn camera_of_sequence(seq: &Sequence) -> Result<Camera> {
         width_px: size(w, "wide")?,
         height_px: size(h, "high")?,
     };
-    Ok(Camera::from_kitti_p0(image, &seq.p0.map(|x| x as f32)))
+    Ok(Camera::from_kitti_p0(image, &p0.map(|x| x as f32)))
 }
 
 impl MountFile {
