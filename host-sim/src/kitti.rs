@@ -3,7 +3,7 @@
 //! (12 numbers a line: the 3x4 pose of camera 0 in the frame of camera 0 at the first frame).
 //! Every error names the file, the line where there is one, and what was expected.
 
-use crate::input::Layout;
+use crate::layout::Layout;
 use image::GrayImage;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -18,7 +18,7 @@ pub fn pose_of(camera: &roadvo::CameraPose) -> Pose {
 }
 
 /// What went wrong reading or writing KITTI files, or reading a sequence of another layout
-/// ([`crate::input`]).
+/// ([`crate::layout`]).
 #[derive(Debug, Error)]
 pub enum KittiError {
     /// The file could not be read or written.
@@ -209,7 +209,7 @@ pub fn image_path(seq_dir: &Path, i: usize) -> PathBuf {
 
 /// A sequence of frames, checked: a timestamp for each, all of the first one's size. A KITTI
 /// sequence folder ([`Sequence::open`]: frames numbered from 0 without gaps, a `P0` calibration
-/// where `calib.txt` exists), or another layout ([`crate::input::open`]).
+/// where `calib.txt` exists), or another layout ([`crate::layout::open`]).
 #[derive(Clone, Debug)]
 pub struct Sequence {
     /// The folder (`.../sequences/NN`), or the path of a sequence of another layout (a folder

@@ -1,7 +1,7 @@
 //! Host side of roadvo: everything around the core that needs `std`. Synthetic drives with exact
 //! ground truth ([`scenario`], [`path`], [`render`], [`simulate`]), mount calibration against
 //! ground truth ([`calibrate`]), the paper's sensitivity study ([`sensitivity`]), the KITTI file
-//! layout ([`kitti`]) and the others a sequence may have ([`input`]: folders of frames
+//! layout ([`kitti`]) and the others a sequence may have ([`layout`]: folders of frames
 //! ([`image_files`]) and videos ([`video`])), the mount file users write for their vehicles ([`mount`]), the KITTI metric
 //! ([`eval`]), runs of the odometer over a sequence ([`run`]), an hour's soak of one odometer
 //! ([`soak`]), plots ([`plot`]) and the firmware example's frame store ([`frame_store`]). Outputs
@@ -13,9 +13,9 @@ pub mod eval;
 pub mod export;
 pub mod frame_store;
 pub mod image_files;
-pub mod input;
 pub mod interrupt;
 pub mod kitti;
+pub mod layout;
 pub mod mount;
 pub mod output;
 pub mod path;

@@ -46,7 +46,7 @@ const SECTIONS: [(&str, &[roadvo::setting::Field]); 3] = [
 /// error for a sequence without `calib.txt` (a video, a folder of frames).
 pub fn camera_of_sequence(seq: &Sequence) -> Result<Camera> {
     let Some(p0) = seq.p0 else {
-        bail!("{}", crate::input::no_calibration(seq));
+        bail!("{}", crate::layout::no_calibration(seq));
     };
     let (w, h) = seq.size;
     let size = |v: u32, what| {

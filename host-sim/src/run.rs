@@ -1,10 +1,10 @@
 //! Running the odometer over a sequence, frame by frame, as an ECU would run it: one loop
 //! ([`run_frames`]) over a source of frames, decoded on the way ([`Sequence`], of any layout:
-//! [`crate::input`]; its `frame(i)` is called in order, so a video streams) or beforehand
+//! [`crate::layout`]; its `frame(i)` is called in order, so a video streams) or beforehand
 //! ([`Preloaded`], so that the odometry's own speed is measured apart); the trajectory through
 //! the mount file's heading smoother ([`Trajectory`]); and `roadvo run`'s outputs.
 
-use crate::input::{Layout, no_calibration};
+use crate::layout::{Layout, no_calibration};
 use crate::kitti::{Pose, Sequence, pose_of};
 use crate::mount::{MountFile, camera_of_sequence, file_key};
 use crate::output::OutputFile;

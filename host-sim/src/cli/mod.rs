@@ -16,7 +16,7 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use roadvo::Method;
-use roadvo_sim::input::{self, FrameTimes, inputs_of};
+use roadvo_sim::layout::{self, FrameTimes, inputs_of};
 use roadvo_sim::kitti::Sequence;
 use roadvo_sim::kitti::image_path;
 use roadvo_sim::mount::MountFile;
@@ -136,7 +136,7 @@ impl SequenceArgs {
             file: self.times.clone(),
             fps: self.fps,
         };
-        let seq = input::open(&self.seq_dir, &times)?;
+        let seq = layout::open(&self.seq_dir, &times)?;
         let mut mount = mount_for(&seq, self.mount.as_deref())?;
         for s in &self.settings {
             mount.set(s)?;
