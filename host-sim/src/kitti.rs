@@ -4,6 +4,7 @@
 //! Every error names the file, the line where there is one, and what was expected.
 
 use crate::input::{Input, InputError, read_text};
+use crate::layout::Layout;
 use image::GrayImage;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -17,7 +18,8 @@ pub fn pose_of(camera: &roadvo::CameraPose) -> Pose {
     std::array::from_fn(|k| f64::from(camera.rows[k / 4][k % 4]))
 }
 
-/// What went wrong reading or writing KITTI files.
+/// What went wrong reading or writing KITTI files, or reading a sequence of another layout
+/// ([`crate::layout`]).
 #[derive(Debug, Error)]
 pub enum KittiError {
     /// The file could not be read or written.
@@ -283,24 +285,29 @@ pub fn image_path(seq_dir: &Path, i: usize) -> PathBuf {
     seq_dir.join("image_0").join(format!("{i:06}.png"))
 }
 
-/// A KITTI sequence folder, checked: frames numbered from 0 without gaps, a timestamp for each,
-/// a `P0` calibration.
+/// A sequence of frames, checked: a timestamp for each, all of the first one's size. A KITTI
+/// sequence folder ([`Sequence::open`]: frames numbered from 0 without gaps, a `P0` calibration
+/// where `calib.txt` exists), or another layout ([`crate::layout::open`]).
 #[derive(Clone, Debug)]
 pub struct Sequence {
-    /// The folder (`.../sequences/NN`).
+    /// The folder (`.../sequences/NN`), or the path of a sequence of another layout (a folder
+    /// or glob of frames, a video file).
     pub dir: PathBuf,
     /// Number of frames.
     pub frames: usize,
     /// Timestamps, seconds, one per frame.
     pub times_s: Vec<f64>,
-    /// The `P0` projection.
-    pub p0: [f64; 12],
+    /// The `P0` projection, where the sequence has a `calib.txt`.
+    pub p0: Option<[f64; 12]>,
     /// Frame size, from the first frame: (width, height).
     pub size: (u32, u32),
+    /// Where the frames come from.
+    pub layout: Layout,
 }
 
 impl Sequence {
-    /// Opens and checks a sequence folder.
+    /// Opens and checks a KITTI sequence folder; `calib.txt` may be missing (a mount file's
+    /// `[camera]` then gives the camera).
     pub fn open(dir: &Path) -> Result<Self, KittiError> {
         let image_dir = dir.join("image_0");
         let entries = std::fs::read_dir(&image_dir).map_err(|source| KittiError::Io {
@@ -355,7 +362,8 @@ impl Sequence {
                 ),
             });
         }
-        let p0 = read_calib_p0(&dir.join("calib.txt"))?;
+        let calib = dir.join("calib.txt");
+        let p0 = calib.exists().then(|| read_calib_p0(&calib)).transpose()?;
         let size = frame_size(&image_path(dir, 0))?;
         Ok(Self {
             dir: dir.to_owned(),
@@ -363,6 +371,7 @@ impl Sequence {
             times_s,
             p0,
             size,
+            layout: Layout::Kitti,
         })
     }
 
@@ -371,9 +380,26 @@ impl Sequence {
         roadvo::Instant::from_micros(micros(self.times_s[i]))
     }
 
+    /// The image file of frame `i`, where frames are files.
+    pub fn frame_path(&self, i: usize) -> Option<PathBuf> {
+        match &self.layout {
+            Layout::Kitti => Some(image_path(&self.dir, i)),
+            Layout::Images(files) => files.get(i).cloned(),
+            Layout::Video(_) => None,
+        }
+    }
+
     /// Loads frame `i` as 8-bit grey; it must have the size of the first frame.
     pub fn load(&self, i: usize) -> Result<GrayImage, KittiError> {
-        let path = image_path(&self.dir, i);
+        if let Layout::Video(video) = &self.layout {
+            return video.frame(i);
+        }
+        let missing = || KittiError::File {
+            path: self.dir.clone(),
+            what: format!("has no frame {i} ({} frames)", self.frames),
+        };
+        let path = self.frame_path(i).ok_or_else(missing)?;
+        let first = self.frame_path(0).ok_or_else(missing)?;
         let cannot_read = |e: &dyn std::fmt::Display| KittiError::File {
             path: path.clone(),
             what: format!("cannot read the image: {e}"),
@@ -391,11 +417,12 @@ impl Sequence {
             return Err(KittiError::File {
                 path,
                 what: format!(
-                    "is {}x{}, expected {}x{} like 000000.png",
+                    "is {}x{}, expected {}x{} like {}",
                     grey.width(),
                     grey.height(),
                     self.size.0,
-                    self.size.1
+                    self.size.1,
+                    first.file_name().unwrap_or_default().to_string_lossy()
                 ),
             });
         }
@@ -472,6 +499,13 @@ mod tests {
         let s = Sequence::open(d.path()).unwrap();
         assert_eq!((s.frames, s.size), (3, (64, 48)));
         assert_eq!(s.load(2).unwrap().dimensions(), (64, 48));
+    }
+
+    #[test]
+    fn calib_txt_is_optional() {
+        let d = sequence_with(&[0, 1], &[(64, 48); 2]);
+        std::fs::remove_file(d.path().join("calib.txt")).unwrap();
+        assert_eq!(Sequence::open(d.path()).unwrap().p0, None);
     }
 
     #[test]

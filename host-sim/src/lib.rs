@@ -1,21 +1,23 @@
 //! Host side of roadvo: everything around the core that needs `std`. Synthetic drives with exact
 //! ground truth ([`scenario`], [`path`], [`render`], [`simulate`]), mount calibration against
 //! ground truth ([`calibrate`]), the paper's sensitivity study ([`sensitivity`]), the KITTI file
-//! layout ([`kitti`]), the mount file users write for their vehicles ([`mount`]), the KITTI metric
-//! ([`eval`]), runs of the odometer over a sequence ([`run`]), an hour's soak of one odometer
-//! ([`soak`]), plots ([`plot`]) and the firmware example's frame store ([`frame_store`]). Outputs
-//! are written whole or not at all ([`output`]), inputs read within size limits ([`input`]), and
-//! a Ctrl-C ends long work cleanly ([`interrupt`]); [`view`] draws what the odometer sees. The
-//! `roadvo` binary is a thin command line
-//! over these.
+//! layout ([`kitti`]) and the others a sequence may have ([`layout`]: folders of frames
+//! ([`image_files`]) and videos ([`video`])), the mount file users write for their vehicles
+//! ([`mount`]), the KITTI metric ([`eval`]), runs of the odometer over a sequence ([`run`]), an
+//! hour's soak of one odometer ([`soak`]), plots ([`plot`]) and the firmware example's frame
+//! store ([`frame_store`]). Outputs are written whole or not at all ([`output`]), inputs read
+//! within size limits ([`input`]), and a Ctrl-C ends long work cleanly ([`interrupt`]); [`view`]
+//! draws what the odometer sees. The `roadvo` binary is a thin command line over these.
 
 pub mod calibrate;
 pub mod eval;
 pub mod export;
 pub mod frame_store;
+pub mod image_files;
 pub mod input;
 pub mod interrupt;
 pub mod kitti;
+pub mod layout;
 pub mod mount;
 pub mod output;
 pub mod path;
@@ -26,6 +28,7 @@ pub mod scenario;
 pub mod sensitivity;
 pub mod simulate;
 pub mod soak;
+pub mod video;
 pub mod view;
 
 /// Hears of long work: [`start`](Self::start) once with the number of steps, then

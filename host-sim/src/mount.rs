@@ -45,8 +45,11 @@ const SECTIONS: [(&str, &[roadvo::setting::Field]); 3] = [
 
 /// The camera of a KITTI-layout sequence: `P0` of its `calib.txt` and its frames' size,
 /// within the ranges the odometer takes; errors name `calib.txt` (or the frames), never the
-/// mount file.
+/// mount file; an error for a sequence without `calib.txt` (a video, a folder of frames).
 pub fn camera_of_sequence(seq: &Sequence) -> Result<Camera> {
+    let Some(p0) = seq.p0 else {
+        bail!("{}", crate::layout::no_calibration(seq));
+    };
     let (w, h) = seq.size;
     let size = |v: u32, what| {
         u16::try_from(v).with_context(|| {
@@ -60,7 +63,7 @@ pub fn camera_of_sequence(seq: &Sequence) -> Result<Camera> {
         width_px: size(w, "wide")?,
         height_px: size(h, "high")?,
     };
-    let camera = Camera::from_kitti_p0(image, &seq.p0.map(|x| x as f32));
+    let camera = Camera::from_kitti_p0(image, &p0.map(|x| x as f32));
     if let Err(field) = camera.check_finite().and_then(|()| camera.check_ranges()) {
         let value = camera
             .get(field)
@@ -420,10 +423,11 @@ height_m = 1.65
             dir: dir.path().join("00"),
             frames: 1,
             times_s: vec![0.0],
-            p0: [
+            p0: Some([
                 2e5, 0.0, 600.0, 0.0, 0.0, 700.0, 180.0, 0.0, 0.0, 0.0, 1.0, 0.0,
-            ],
+            ]),
             size: (1241, 376),
+            layout: crate::layout::Layout::Kitti,
         };
         let e = format!("{:#}", camera_of_sequence(&seq).unwrap_err());
         assert!(

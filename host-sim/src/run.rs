@@ -1,15 +1,19 @@
 //! Running the odometer over a sequence, frame by frame, as an ECU would run it: one loop
-//! ([`run_frames`]) over a source of frames, decoded on the way ([`Sequence`]) or beforehand
+//! ([`run_frames`]) over a source of frames, decoded on the way ([`Sequence`], of any layout:
+//! [`crate::layout`]; its `frame(i)` is called in order, so a video streams) or beforehand
 //! ([`Preloaded`], so that the odometry's own speed is measured apart); the trajectory through
 //! the mount file's heading smoother ([`Trajectory`]); and `roadvo run`'s outputs.
 
 use crate::kitti::{Pose, Sequence, pose_of};
+use crate::layout::{Layout, no_calibration};
 use crate::mount::{MountFile, camera_of_sequence, file_key};
 use crate::output::OutputFile;
 use anyhow::{Context, Result, anyhow, bail};
 use image::GrayImage;
 use roadvo::wire::trace;
-use roadvo::{ConfigError, Estimate, Instant, Method, Odometer, SliceFrame, Smoother, ValidConfig};
+use roadvo::{
+    Camera, ConfigError, Estimate, Instant, Method, Odometer, SliceFrame, Smoother, ValidConfig,
+};
 use serde::Serialize;
 use std::borrow::Cow;
 use std::path::Path;
@@ -97,7 +101,7 @@ impl FrameSource for Preloaded {
 pub struct Timing {
     /// In `process()` alone.
     pub odometry: Duration,
-    /// Fetching the frames (decoding PNGs, for a sequence).
+    /// Fetching the frames (decoding PNGs, JPEGs or a video, for a sequence).
     pub decode: Duration,
 }
 
@@ -310,10 +314,16 @@ pub fn config_for(
     mount.to_config().validate().map_err(config_error)
 }
 
-/// The mount file of a sequence: `--mount` if given, else `SEQ_DIR/mount.toml`; without a
-/// `[camera]` section it takes the sequence's (`calib.txt` and the frames' size).
+/// The mount file of a sequence: `--mount` if given, else `SEQ_DIR/mount.toml` for a KITTI
+/// sequence folder (the other layouts need `--mount`); without a `[camera]` section it takes
+/// the sequence's (`calib.txt` and the frames' size), and with one it must agree with them
+/// where the sequence has a `calib.txt` ([`check_same_camera`]).
 pub fn mount_for(seq: &Sequence, mount: Option<&Path>) -> Result<MountFile> {
-    let path = mount.map_or_else(|| seq.dir.join("mount.toml"), Path::to_owned);
+    let path = match mount {
+        Some(path) => path.to_owned(),
+        None if matches!(seq.layout, Layout::Kitti) => seq.dir.join("mount.toml"),
+        None => bail!("{}; pass one with --mount FILE", no_calibration(seq)),
+    };
     if !path.exists() {
         bail!(
             "no mount file: {} does not exist (pass --mount FILE, e.g. mounts/kitti.toml; \
@@ -321,7 +331,70 @@ pub fn mount_for(seq: &Sequence, mount: Option<&Path>) -> Result<MountFile> {
             path.display()
         );
     }
-    MountFile::read(&path, Some(&camera_of_sequence(seq)?))
+    if seq.p0.is_none() {
+        if !has_camera_section(&path) {
+            bail!("{}, and {} has none", no_calibration(seq), path.display());
+        }
+        return MountFile::read(&path, None);
+    }
+    let seq_camera = camera_of_sequence(seq)?;
+    let file = MountFile::read(&path, Some(&seq_camera))?;
+    check_same_camera(&file.camera, &seq_camera, &path, seq)?;
+    Ok(file)
+}
+
+/// Whether the mount file at `path` has a `[camera]` section; a file that cannot be read or
+/// parsed counts as having one, so that [`MountFile::read`] says what is wrong with it.
+fn has_camera_section(path: &Path) -> bool {
+    std::fs::read_to_string(path)
+        .ok()
+        .and_then(|text| toml::from_str::<toml::Table>(&text).ok())
+        .is_none_or(|table| table.contains_key("camera"))
+}
+
+/// Largest difference in focal length or principal point between a mount file's `[camera]`
+/// and a sequence's `calib.txt` taken as the same, pixels.
+pub const SAME_CAMERA_PX: f32 = 1e-3;
+
+/// Refuses a mount file `[camera]` (`camera`, read from `path`) that disagrees with the
+/// sequence's own (`seq_camera`: its `calib.txt` and its frames' size): a focal length or
+/// principal point more than [`SAME_CAMERA_PX`] apart, or another frame size. The error names
+/// both files and every value that differs.
+pub fn check_same_camera(
+    camera: &Camera,
+    seq_camera: &Camera,
+    path: &Path,
+    seq: &Sequence,
+) -> Result<()> {
+    let mut differ = Vec::new();
+    if camera.image() != seq_camera.image() {
+        differ.push(format!(
+            "frame size {}x{} vs {}x{}",
+            camera.width_px, camera.height_px, seq_camera.width_px, seq_camera.height_px
+        ));
+    }
+    for (key, a, b) in [
+        ("fx_px", camera.fx_px, seq_camera.fx_px),
+        ("fy_px", camera.fy_px, seq_camera.fy_px),
+        ("cx_px", camera.cx_px, seq_camera.cx_px),
+        ("cy_px", camera.cy_px, seq_camera.cy_px),
+    ] {
+        if (a - b).abs() > SAME_CAMERA_PX {
+            differ.push(format!("{key} {a} vs {b}"));
+        }
+    }
+    if differ.is_empty() {
+        return Ok(());
+    }
+    let first = seq.frame_path(0).unwrap_or_else(|| seq.dir.clone());
+    bail!(
+        "the [camera] of mount file {} disagrees with {} and the size of {}: {}; make them \
+         agree, or leave [camera] out to take calib.txt's",
+        path.display(),
+        seq.dir.join("calib.txt").display(),
+        first.display(),
+        differ.join(", ")
+    )
 }
 
 /// One frame's estimate as a JSON line: the odometer's own (never smoothed), in the vehicle

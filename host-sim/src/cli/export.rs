@@ -5,8 +5,8 @@ use anyhow::{Result, bail};
 use roadvo::{Method, Odometer, Smoother};
 use roadvo_sim::export::{Language, export};
 use roadvo_sim::kitti::Sequence;
-use roadvo_sim::mount::{MountFile, camera_of_sequence};
-use roadvo_sim::run::{config_error, config_for};
+use roadvo_sim::mount::MountFile;
+use roadvo_sim::run::{config_error, config_for, mount_for};
 use std::path::PathBuf;
 
 /// Write a mount file's whole configuration as a Rust `const` or a C array for a firmware,
@@ -48,8 +48,12 @@ const FIRMWARE_SMOOTHER_FRAMES: usize = 9;
 impl ExportArgs {
     pub fn run(self) -> Result<()> {
         let seq = self.seq.as_deref().map(Sequence::open).transpose()?;
-        let camera = seq.as_ref().map(camera_of_sequence).transpose()?;
-        let mut mount = MountFile::read(&self.mount, camera.as_ref())?;
+        // As `run` reads it: the sequence's calib.txt where the file has no [camera], and
+        // agreeing with it where both give one.
+        let mut mount = match &seq {
+            Some(seq) => mount_for(seq, Some(&self.mount))?,
+            None => MountFile::read(&self.mount, None)?,
+        };
         for s in &self.settings {
             mount.set(s)?;
         }

@@ -19,6 +19,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use roadvo::Method;
 use roadvo_sim::kitti::Sequence;
 use roadvo_sim::kitti::image_path;
+use roadvo_sim::layout::{self, FrameTimes, inputs_of};
 use roadvo_sim::mount::MountFile;
 use roadvo_sim::mount::camera_of_sequence;
 use roadvo_sim::output::check_outputs;
@@ -45,7 +46,8 @@ pub enum Command {
     Simulate(simulate::SimulateArgs),
     /// Compare an estimated trajectory with ground truth (KITTI pose files).
     Eval(eval::EvalArgs),
-    /// Run the odometer over a KITTI-layout sequence and write its trajectory.
+    /// Run the odometer over a sequence (a KITTI folder, a folder or glob of PNG/JPEG frames, or
+    /// a video file) and write its trajectory.
     Run(run::RunArgs),
     /// Refine the mount (pitch, yaw, roll, height, offset ahead of the rear axle) so that the
     /// odometry over a section with ground truth matches it.
@@ -90,14 +92,23 @@ impl Command {
     }
 }
 
-/// A KITTI-layout sequence and the mount to run it with.
+/// A sequence (KITTI folder, folder or glob of frames, or video) and the mount to run it with.
 #[derive(clap::Args)]
 pub struct SequenceArgs {
-    /// The sequence folder (holding image_0/, times.txt, calib.txt).
+    /// The sequence: a KITTI sequence folder (image_0/, times.txt, calib.txt), a folder or a
+    /// quoted glob of PNG/JPEG frames ('drive/*.jpg', in natural order; timed by --times or
+    /// --fps), or a video file (read through ffmpeg, timed by its container).
     pub seq_dir: PathBuf,
-    /// Mount file (default: SEQ_DIR/mount.toml); without [camera] it takes the sequence's.
+    /// Mount file (default: SEQ_DIR/mount.toml for a KITTI folder; required for the others,
+    /// with [camera]); without [camera] it takes calib.txt's camera, with one it must agree.
     #[arg(long)]
     pub mount: Option<PathBuf>,
+    /// Timestamps of a folder of frames: seconds, one a line (like KITTI's times.txt).
+    #[arg(long, value_name = "FILE", conflicts_with = "fps")]
+    pub times: Option<PathBuf>,
+    /// Frame rate of a folder of frames: frame i at i/N seconds.
+    #[arg(long, value_name = "N")]
+    pub fps: Option<f64>,
     /// Override the mount file's method: pitch-vote or paper.
     #[arg(long, value_parser = parse_method)]
     pub method: Option<Method>,
@@ -113,17 +124,24 @@ impl SequenceArgs {
     pub fn check_outputs(&self, extra_inputs: &[PathBuf], outputs: &[(&str, &Path)]) -> Result<()> {
         let dir = &self.seq_dir;
         let mount = self.mount.clone().unwrap_or_else(|| dir.join("mount.toml"));
-        let mut inputs = vec![dir.join("times.txt"), dir.join("calib.txt"), mount];
+        let (mut inputs, dirs) = inputs_of(dir);
+        inputs.push(mount);
+        inputs.extend(self.times.clone());
         inputs.extend_from_slice(extra_inputs);
         let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
-        check_outputs(&inputs, &[&dir.join("image_0")], outputs)
+        let dirs: Vec<&Path> = dirs.iter().map(PathBuf::as_path).collect();
+        check_outputs(&inputs, &dirs, outputs)
     }
 
-    /// Opens the sequence and reads its mount file, with the `--set` changes, and checks the
-    /// configuration they make; a refusal names the mount file, and `calib.txt` and the first
-    /// frame where the camera comes from them.
+    /// Opens the sequence, whatever its layout, and reads its mount file, with the `--set`
+    /// changes, and checks the configuration they make; a refusal names the mount file, and
+    /// `calib.txt` and the first frame where the camera comes from them.
     pub fn open(&self) -> Result<(Sequence, MountFile)> {
-        let seq = Sequence::open(&self.seq_dir)?;
+        let times = FrameTimes {
+            file: self.times.clone(),
+            fps: self.fps,
+        };
+        let seq = layout::open(&self.seq_dir, &times)?;
         let mut mount = mount_for(&seq, self.mount.as_deref())?;
         for s in &self.settings {
             mount.set(s)?;

@@ -9,7 +9,8 @@ use roadvo_sim::plot::{Track, check_format, plot_trajectories};
 use roadvo_sim::run::{BadFrames, RunFiles, RunOutput, config_for, run};
 use std::path::{Path, PathBuf};
 
-/// Run the odometer over a KITTI-layout sequence and write its trajectory.
+/// Run the odometer over a sequence (a KITTI folder, a folder of frames or a video) and write
+/// its trajectory.
 #[derive(clap::Args)]
 pub struct RunArgs {
     #[command(flatten)]
@@ -140,7 +141,7 @@ fn print_summary(run: &RunOutput, out: &Path) {
     };
     println!(
         "{n} frames, {} fallbacks{smoothing}; odometry {:.1} ms ({:.0} frames/s \
-         single-threaded), PNG decoding {:.1} ms a frame; trajectory written to {}",
+         single-threaded), decoding {:.1} ms a frame; trajectory written to {}",
         run.fallbacks(),
         1e3 * run.ran.timing.odometry.as_secs_f64() / n.max(1) as f64,
         run.frames_per_s(),
