@@ -70,11 +70,7 @@ fn parse_numbers(path: &Path, line: usize, text: &str) -> Result<Vec<f64>, Kitti
             w.parse::<f64>()
                 .ok()
                 .filter(|x| x.is_finite())
-                .ok_or_else(|| KittiError::Line {
-                    path: path.to_owned(),
-                    line,
-                    what: format!("{w:?} is not a finite number"),
-                })
+                .ok_or_else(|| line_error(path, line, format!("{w:?} is not a finite number")))
         })
         .collect()
 }

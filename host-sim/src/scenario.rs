@@ -789,9 +789,9 @@ impl Scenario {
             let (length, _, k1) = segment_shape(seg, k_end);
             if !(length > 0.0 && length <= MAX_PATH_M) {
                 bail!(
-                    "{}: its length is {length} m, outside 0 (not included) to {MAX_PATH_M} m, \
-                     the limits of a scenario",
-                    key("length")
+                    "[[segment]] {}: length {length} m is outside 0 (excluded) to {MAX_PATH_M} \
+                     m, the limits of a scenario",
+                    i + 1
                 );
             }
             total += length;
@@ -1003,12 +1003,12 @@ mod tests {
         for (edit, says) in [
             (
                 (first_straight, "kind = \"straight\"\nlength_m = 1e7"),
-                "big.toml: [[segment]] 1: length: its length is 10000000 m, outside 0 (not \
-                 included) to 20000 m",
+                "big.toml: [[segment]] 1: length 10000000 m is outside 0 (excluded) to 20000 m, \
+                 the limits of a scenario",
             ),
             (
                 (first_straight, "kind = \"straight\"\nlength_m = 1e30"),
-                "big.toml: [[segment]] 1: length: its length is 1000000000000000000000000000000 m",
+                "big.toml: [[segment]] 1: length 1000000000000000000000000000000 m is outside",
             ),
             (
                 (first_straight, "kind = \"straight\"\nlength_m = 19900.0"),
