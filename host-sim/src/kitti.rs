@@ -47,14 +47,14 @@ pub enum KittiError {
     },
 }
 
-fn read_text(path: &Path) -> Result<String, KittiError> {
+pub(crate) fn read_text(path: &Path) -> Result<String, KittiError> {
     std::fs::read_to_string(path).map_err(|source| KittiError::Io {
         path: path.to_owned(),
         source,
     })
 }
 
-fn parse_numbers(path: &Path, line: usize, text: &str) -> Result<Vec<f64>, KittiError> {
+pub(crate) fn parse_numbers(path: &Path, line: usize, text: &str) -> Result<Vec<f64>, KittiError> {
     text.split_whitespace()
         .map(|w| {
             w.parse::<f64>()

@@ -7,6 +7,8 @@
 //! are written whole or not at all ([`output`]), and a Ctrl-C ends long work cleanly
 //! ([`interrupt`]). The `roadvo` binary is a thin command line over these.
 
+pub mod ape;
+pub mod associate;
 pub mod calibrate;
 pub mod eval;
 pub mod export;
@@ -17,6 +19,8 @@ pub mod mount;
 pub mod output;
 pub mod path;
 pub mod plot;
+pub mod pose_file;
+pub mod quality;
 pub mod render;
 pub mod run;
 pub mod scenario;
