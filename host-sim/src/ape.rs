@@ -2,8 +2,9 @@
 //! after an Umeyama alignment of the estimate to the ground truth.
 //!
 //! APE: the distance between each estimated position (aligned) and the true one, metres. RPE
-//! per distance: the ground truth is cut into consecutive sections of `delta` metres of its
-//! path (evo's `--delta D --delta_unit m`); the error of a section from `i` to `j` is
+//! per distance: the aligned estimate's path (or the ground truth's: [`PairsFrom`]) is cut into
+//! consecutive sections of `delta` metres (evo's `--delta D --delta_unit m`, and
+//! `--pairs_from_reference`); the error of a section from `i` to `j` is
 //! `E = (Q_i^-1 Q_j)^-1 (P_i^-1 P_j)` (Q the truth, P the aligned estimate), its translation
 //! norm in metres and rotation angle in degrees. The alignment ([`umeyama`]) is the least-squares
 //! rigid motion (SE(3)) or similarity (Sim(3), with a scale: a monocular estimate's) taking the
@@ -131,7 +132,7 @@ impl Stats {
         let mut sorted = errors.to_vec();
         sorted.sort_by(f64::total_cmp);
         let mid = sorted.len() / 2;
-        let median = if sorted.len() % 2 == 0 {
+        let median = if sorted.len().is_multiple_of(2) {
             0.5 * (sorted[mid - 1] + sorted[mid])
         } else {
             sorted[mid]
@@ -158,11 +159,23 @@ pub struct Ape {
     pub translation_m: Stats,
 }
 
-/// The relative pose error over sections of the ground truth's path.
+/// Whose path the RPE's sections are cut along.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PairsFrom {
+    /// The aligned estimate's (evo's default).
+    Estimate,
+    /// The ground truth's (evo's `--pairs_from_reference`).
+    GroundTruth,
+}
+
+/// The relative pose error over sections of a path.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Rpe {
-    /// Section length along the ground truth's path, metres.
+    /// Section length along the path, metres.
     pub delta_m: f64,
+    /// Whose path.
+    pub pairs_from: PairsFrom,
     /// Sections compared.
     pub pairs: usize,
     /// Translation errors, metres (`None` without sections).
@@ -233,13 +246,19 @@ pub fn distances_m(gt: &[Pose]) -> Vec<f64> {
     out
 }
 
-/// The RPE of `est` (already aligned) against `gt` over consecutive sections of `delta_m`
-/// metres of the ground truth's path: evo's `filter_pairs_by_path` without `--all_pairs`.
-pub fn rpe(gt: &[Pose], est: &[Pose], delta_m: f64) -> Rpe {
+/// The RPE of `est` (already aligned) against `gt` (paired pose by pose) over consecutive
+/// sections of `delta_m` metres of the path `pairs_from` names: evo's `filter_pairs_by_path`
+/// without `--all_pairs`.
+pub fn rpe(gt: &[Pose], est: &[Pose], delta_m: f64, pairs_from: PairsFrom) -> Rpe {
+    let n = gt.len().min(est.len());
+    let along = match pairs_from {
+        PairsFrom::Estimate => &est[..n],
+        PairsFrom::GroundTruth => &gt[..n],
+    };
     let mut ids = vec![0];
     let mut path = 0.0;
-    for i in 1..gt.len().min(est.len()) {
-        path += (position(&gt[i]) - position(&gt[i - 1])).norm();
+    for i in 1..n {
+        path += (position(&along[i]) - position(&along[i - 1])).norm();
         if path >= delta_m {
             ids.push(i);
             path = 0.0;
@@ -256,6 +275,7 @@ pub fn rpe(gt: &[Pose], est: &[Pose], delta_m: f64) -> Rpe {
     let some = |v: &[f64]| (!v.is_empty()).then(|| Stats::of(v));
     Rpe {
         delta_m,
+        pairs_from,
         pairs: t.len(),
         translation_m: some(&t),
         rotation_deg: some(&r),
@@ -312,10 +332,14 @@ pub fn format_ape_rpe(ape: &Ape, rpe: &Rpe) -> String {
         "\nAPE, translation (m; {how}): {}\n",
         stats(&ape.translation_m, 4)
     );
+    let whose = match rpe.pairs_from {
+        PairsFrom::Estimate => "the estimate's",
+        PairsFrom::GroundTruth => "the ground truth's",
+    };
     match (&rpe.translation_m, &rpe.rotation_deg) {
         (Some(t), Some(r)) => {
             s += &format!(
-                "RPE over {:.0} m of the ground truth's path ({} sections, same alignment):\n  \
+                "RPE over {:.0} m of {whose} path ({} sections, same alignment):\n  \
                  translation (m): {}\n  rotation (deg): {}\n",
                 rpe.delta_m,
                 rpe.pairs,
@@ -325,7 +349,7 @@ pub fn format_ape_rpe(ape: &Ape, rpe: &Rpe) -> String {
         }
         _ => {
             s += &format!(
-                "RPE over {:.0} m: the ground truth's path is shorter, no sections\n",
+                "RPE over {:.0} m: {whose} path is shorter, no sections\n",
                 rpe.delta_m
             );
         }
@@ -398,7 +422,7 @@ mod tests {
         let a = ape(&gt, &est, Alignment::Sim3).unwrap();
         assert!(a.ape.translation_m.max < 1e-9, "{:?}", a.ape);
         assert!((a.ape.scale - truth.scale).abs() < 1e-12);
-        let r = rpe(&gt, &a.poses, 20.0);
+        let r = rpe(&gt, &a.poses, 20.0, PairsFrom::Estimate);
         assert!(r.pairs > 10 && r.translation_m.unwrap().max < 1e-9, "{r:?}");
         assert!(r.rotation_deg.unwrap().max < 1e-6, "{r:?}");
         // Without the scale, the error remains.
@@ -419,7 +443,7 @@ mod tests {
             let a = ape(&gt, &gt, alignment).unwrap();
             assert!(a.ape.translation_m.max < 1e-9, "{alignment:?} {:?}", a.ape);
             assert!((a.ape.scale - 1.0).abs() < 1e-12);
-            let r = rpe(&gt, &a.poses, 10.0);
+            let r = rpe(&gt, &a.poses, 10.0, PairsFrom::GroundTruth);
             assert!(r.translation_m.unwrap().max < 1e-9);
         }
     }
@@ -434,17 +458,20 @@ mod tests {
     }
 
     #[test]
-    fn rpe_sections_follow_the_ground_truth_s_path() {
+    fn rpe_sections_follow_the_path_asked_for() {
         // 1.2 m a frame ahead (plus the wiggle): sections of at least 12 m.
         let gt = drive(100);
         let mut est = gt.clone();
         for p in &mut est {
             p[11] *= 1.1;
         }
-        let r = rpe(&gt, &est, 12.0);
+        let r = rpe(&gt, &est, 12.0, PairsFrom::GroundTruth);
         assert!(r.pairs >= 8 && r.pairs < 11, "{r:?}");
+        // Along the estimate's path, 10 % longer: more sections.
+        let longer = rpe(&gt, &est, 12.0, PairsFrom::Estimate);
+        assert!(longer.pairs > r.pairs, "{longer:?}");
         assert!(r.translation_m.unwrap().mean > 1.0);
-        let none = rpe(&gt, &est, 1e6);
+        let none = rpe(&gt, &est, 1e6, PairsFrom::Estimate);
         assert_eq!((none.pairs, none.translation_m), (0, None));
         assert!(
             format_ape_rpe(&ape(&gt, &est, Alignment::None).unwrap().ape, &none)

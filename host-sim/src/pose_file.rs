@@ -59,6 +59,8 @@ pub struct TimedPoses {
     pub poses: Vec<Pose>,
     /// Timestamps, seconds, one a pose (TUM); `None` for KITTI.
     pub times_s: Option<Vec<f64>>,
+    /// The 1-based line of each pose in the file.
+    pub lines: Vec<usize>,
 }
 
 /// How far a TUM quaternion's norm may be from 1 before it is refused rather than normalised.
@@ -77,6 +79,7 @@ pub fn read_trajectory(path: &Path, format: Option<PoseFormat>) -> Result<TimedP
     let mut format = format;
     let mut poses = Vec::new();
     let mut times = Vec::new();
+    let mut lines = Vec::new();
     for (i, line) in text.lines().enumerate() {
         let trimmed = line.trim();
         if trimmed.is_empty() || trimmed.starts_with('#') {
@@ -113,6 +116,7 @@ pub fn read_trajectory(path: &Path, format: Option<PoseFormat>) -> Result<TimedP
                 },
             ));
         }
+        lines.push(i + 1);
         match f {
             PoseFormat::Kitti => poses.push(std::array::from_fn(|k| nums[k])),
             PoseFormat::Tum => {
@@ -131,6 +135,7 @@ pub fn read_trajectory(path: &Path, format: Option<PoseFormat>) -> Result<TimedP
         format,
         poses,
         times_s: (format == PoseFormat::Tum).then_some(times),
+        lines,
     })
 }
 
@@ -219,7 +224,7 @@ mod tests {
         let d = tempfile::tempdir().unwrap();
         let path = d.path().join("est.tum");
         let poses = turning(30);
-        let times: Vec<f64> = (0..30).map(|i| 1.5 + 0.103_642 * i as f64).collect();
+        let times: Vec<f64> = (0..30).map(|i| 1.5 + 0.103_642 * f64::from(i)).collect();
         let format = PoseFormat::for_output(&path, None);
         assert_eq!(format, PoseFormat::Tum);
         write_trajectory(&path, format, &poses, &times).unwrap();

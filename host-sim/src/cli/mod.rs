@@ -42,7 +42,8 @@ pub struct Cli {
 pub enum Command {
     /// Render a synthetic drive with exact ground truth, in KITTI layout.
     Simulate(simulate::SimulateArgs),
-    /// Compare an estimated trajectory with ground truth (KITTI pose files).
+    /// Compare an estimated trajectory with ground truth (KITTI or TUM pose files): the KITTI
+    /// metric, evo's APE and RPE.
     Eval(eval::EvalArgs),
     /// Run the odometer over a KITTI-layout sequence and write its trajectory.
     Run(run::RunArgs),
