@@ -227,7 +227,8 @@ where
     let x_max = pts().map(|p| p.0).fold(1e-9, f64::max);
     // An all-zero series (no fallbacks) still gets an axis up to 1.
     let y_max = match pts().map(|p| p.1).fold(0.0, f64::max) {
-        y if y > 0.0 => y * 1.15,
+        // Headroom for the legend above the lines.
+        y if y > 0.0 => y * 1.4,
         _ => 1.0,
     };
     let mut chart = ChartBuilder::on(area)
@@ -400,8 +401,8 @@ where
         .enumerate()
         .filter_map(|(i, e)| e.report.map(|r| (i, e, r)))
         .collect();
-    // KITTI lengths where any estimate has them, the short ones otherwise.
-    let kitti = reports.iter().any(|(_, _, r)| !r.per_length.is_empty());
+    // KITTI lengths where an estimate has two or more of them, the short ones otherwise.
+    let kitti = reports.iter().any(|(_, _, r)| r.per_length.len() >= 2);
     let (rows_of, what): (fn(&Report) -> &[LengthRow], &str) = if kitti {
         (|r| &r.per_length, "KITTI segments, 100..800 m")
     } else {
