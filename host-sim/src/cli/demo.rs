@@ -99,7 +99,8 @@ impl DemoArgs {
 /// Where the demo's plot goes: `roadvo-demo.png` in `--out`, or in the current folder without
 /// it.
 fn plot_path(out: Option<&Path>) -> PathBuf {
-    out.unwrap_or(Path::new(".")).join("roadvo-demo.png")
+    const NAME: &str = "roadvo-demo.png";
+    out.map_or_else(|| PathBuf::from(NAME), |dir| dir.join(NAME))
 }
 
 /// Where a method's trajectory goes in `--out`: `NAME.txt`, KITTI format, camera 0's frame at
@@ -140,4 +141,17 @@ fn side_by_side(reports: &[(&str, Report)]) -> String {
         s.push('\n');
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_output_goes_under_out() {
+        let out = Path::new("/tmp/d");
+        assert_eq!(plot_path(Some(out)), out.join("roadvo-demo.png"));
+        assert_eq!(plot_path(None), PathBuf::from("roadvo-demo.png"));
+        assert_eq!(trajectory_path(out, "paper"), out.join("paper.txt"));
+    }
 }
