@@ -56,7 +56,8 @@ pub enum KittiError {
 /// The largest timestamp taken, seconds (about 31 years): larger ones lose the microsecond.
 pub const MAX_TIME_S: f64 = 1e9;
 
-fn line_error(path: &Path, line: usize, what: String) -> KittiError {
+/// A [`KittiError::Line`]: `what` is wrong on line `line` (1-based) of `path`.
+pub(crate) fn line_error(path: &Path, line: usize, what: String) -> KittiError {
     KittiError::Line {
         path: path.to_owned(),
         line,
@@ -64,7 +65,7 @@ fn line_error(path: &Path, line: usize, what: String) -> KittiError {
     }
 }
 
-fn parse_numbers(path: &Path, line: usize, text: &str) -> Result<Vec<f64>, KittiError> {
+pub(crate) fn parse_numbers(path: &Path, line: usize, text: &str) -> Result<Vec<f64>, KittiError> {
     text.split_whitespace()
         .map(|w| {
             w.parse::<f64>()

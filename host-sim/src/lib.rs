@@ -9,6 +9,8 @@
 //! within size limits ([`input`]), and a Ctrl-C ends long work cleanly ([`interrupt`]); [`view`]
 //! draws what the odometer sees. The `roadvo` binary is a thin command line over these.
 
+pub mod ape;
+pub mod associate;
 pub mod calibrate;
 pub mod eval;
 pub mod export;
@@ -22,6 +24,8 @@ pub mod mount;
 pub mod output;
 pub mod path;
 pub mod plot;
+pub mod pose_file;
+pub mod quality;
 pub mod render;
 pub mod run;
 pub mod scenario;

@@ -8,6 +8,7 @@ use crate::kitti::{Pose, Sequence, pose_of};
 use crate::layout::{Layout, no_calibration};
 use crate::mount::{MountFile, camera_of_sequence, file_key};
 use crate::output::OutputFile;
+use crate::quality::QualityWriter;
 use anyhow::{Context, Result, anyhow, bail};
 use image::GrayImage;
 use roadvo::wire::trace;
@@ -397,7 +398,7 @@ pub fn check_same_camera(
     )
 }
 
-/// One frame's estimate as a JSON line: the odometer's own (never smoothed), in the vehicle
+/// One frame's estimate as a quality record (a JSON line or a CSV row): the odometer's own (never smoothed), in the vehicle
 /// frame of the first frame (x forward, y left, heading counter-clockwise).
 #[derive(Serialize)]
 struct QualityLine {
@@ -482,6 +483,17 @@ impl RunOutput {
         self.estimates.iter().filter(|e| e.quality.fallback).count()
     }
 
+    /// The frame of the first pose: the first frame not left out.
+    pub fn first_frame(&self) -> usize {
+        let mut first = 0;
+        for s in &self.ran.skipped {
+            if s.frame == first {
+                first += 1;
+            }
+        }
+        first
+    }
+
     /// Frames per second of the odometry alone.
     pub fn frames_per_s(&self) -> f64 {
         self.estimates.len() as f64 / self.ran.timing.odometry.as_secs_f64().max(1e-9)
@@ -492,7 +504,7 @@ impl RunOutput {
 /// ([`crate::output`]).
 #[derive(Default)]
 pub struct RunFiles<'a> {
-    /// Each frame's estimate and quality as JSON lines.
+    /// Each frame's estimate and quality: JSON lines, or CSV for `.csv` ([`crate::quality`]).
     pub quality: Option<&'a Path>,
     /// Each estimate's trace line, and each smoothed one's.
     pub trace: Option<&'a Path>,
@@ -510,7 +522,7 @@ pub fn run(
     bad: BadFrames,
     mut progress: impl FnMut(),
 ) -> Result<RunOutput> {
-    let mut quality_out = files.quality.map(OutputFile::create).transpose()?;
+    let mut quality_out = files.quality.map(QualityWriter::create).transpose()?;
     let mut trace_out = files.trace.map(OutputFile::create).transpose()?;
     let mut estimates = Vec::with_capacity(source.len());
     let mut frames_run = Vec::with_capacity(source.len());
@@ -519,8 +531,7 @@ pub fn run(
         frames_run.push(i);
         let smoothed = trajectory.push(est, t);
         if let Some(out) = quality_out.as_mut() {
-            let line = QualityLine::of(i, source.time_s(i), &est);
-            out.write_line(&serde_json::to_string(&line)?)?;
+            out.write(&QualityLine::of(i, source.time_s(i), &est))?;
         }
         if let Some(out) = trace_out.as_mut() {
             out.write_line(&trace_line("estimate", i, &est))?;
@@ -537,7 +548,10 @@ pub fn run(
             out.write_line(&trace_line("smoothed", frames_run[k], &s))?;
         }
     }
-    for out in [quality_out, trace_out].into_iter().flatten() {
+    if let Some(out) = quality_out {
+        out.commit()?;
+    }
+    if let Some(out) = trace_out {
         out.commit()?;
     }
     Ok(RunOutput {

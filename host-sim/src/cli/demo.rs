@@ -4,18 +4,21 @@ use super::bar;
 use super::simulate::render;
 use anyhow::Result;
 use roadvo::Method;
+use roadvo_sim::ape::{Alignment, ape};
 use roadvo_sim::eval::{Report, evaluate};
-use roadvo_sim::kitti::{Sequence, read_poses};
-use roadvo_sim::plot::{Track, plot_trajectories};
+use roadvo_sim::kitti::{Sequence, read_poses, write_poses};
+use roadvo_sim::plot::{Figure, Scored, plot_figure};
 use roadvo_sim::run::{BadFrames, RunFiles, config_for, mount_for, run};
 use roadvo_sim::scenario::Scenario;
 use roadvo_sim::simulate::{poses_path, sequence_dir};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Render the paper's s-course, run both methods, evaluate, and plot: the default demo.
 #[derive(clap::Args)]
 pub struct DemoArgs {
-    /// Folder to render into (default: a temporary folder, removed afterwards).
+    /// Folder to render into and write the outputs to: the drive, each method's trajectory
+    /// (`pitch-vote.txt`, `paper.txt`: KITTI format) and the plot (`roadvo-demo.png`). Default:
+    /// a temporary folder, removed afterwards, and the plot in the current folder.
     #[arg(long)]
     out: Option<PathBuf>,
     /// Seed of the texture, noise and suspension phases.
@@ -27,7 +30,7 @@ impl DemoArgs {
     pub fn run(self) -> Result<()> {
         // Dropped (and removed) when the demo ends, unless --out names a folder to keep.
         let tmp = tempfile::Builder::new().prefix("roadvo-demo-").tempdir()?;
-        let out = self.out.unwrap_or_else(|| tmp.path().to_owned());
+        let out = self.out.clone().unwrap_or_else(|| tmp.path().to_owned());
         let sc = Scenario::built_in("s-course")?;
         render(&sc, &out, self.seed, None)?;
         let seq = Sequence::open(&sequence_dir(&out))?;
@@ -56,26 +59,54 @@ impl DemoArgs {
             runs.push((method.name(), output));
         }
         println!("\n{}", side_by_side(&reports));
-        let plot = PathBuf::from("roadvo-demo.png");
-        let mut tracks = vec![Track {
-            label: "ground truth",
-            poses: &gt,
-        }];
-        for (name, output) in &runs {
-            tracks.push(Track {
+        if let Some(dir) = &self.out {
+            for (name, output) in &runs {
+                let path = trajectory_path(dir, name);
+                write_poses(&path, &output.poses)?;
+                println!("{name} trajectory written to {}", path.display());
+            }
+        }
+        let plot = plot_path(self.out.as_deref());
+        let apes = runs
+            .iter()
+            .map(|(_, output)| Ok(ape(&gt, &output.poses, Alignment::None)?.errors_m))
+            .collect::<Result<Vec<_>>>()?;
+        let estimates: Vec<Scored> = runs
+            .iter()
+            .zip(&reports)
+            .zip(&apes)
+            .map(|(((name, output), (_, report)), ape_m)| Scored {
                 label: name,
                 poses: &output.poses,
-            });
-        }
-        plot_trajectories(
+                report: Some(report),
+                ape_m: Some(ape_m),
+            })
+            .collect();
+        plot_figure(
             &plot,
-            "roadvo demo: the paper's s-course",
-            &tracks,
-            Some(&reports[0].1),
+            &Figure {
+                title: "roadvo demo: the paper's s-course",
+                ground_truth: Some(&gt),
+                estimates: &estimates,
+                quality: None,
+            },
         )?;
         println!("plot written to {}", plot.display());
         Ok(())
     }
+}
+
+/// Where the demo's plot goes: `roadvo-demo.png` in `--out`, or in the current folder without
+/// it.
+fn plot_path(out: Option<&Path>) -> PathBuf {
+    const NAME: &str = "roadvo-demo.png";
+    out.map_or_else(|| PathBuf::from(NAME), |dir| dir.join(NAME))
+}
+
+/// Where a method's trajectory goes in `--out`: `NAME.txt`, KITTI format, camera 0's frame at
+/// the first frame.
+fn trajectory_path(out: &Path, method: &str) -> PathBuf {
+    out.join(format!("{method}.txt"))
 }
 
 /// The main figures of several reports in columns.
@@ -110,4 +141,17 @@ fn side_by_side(reports: &[(&str, Report)]) -> String {
         s.push('\n');
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_output_goes_under_out() {
+        let out = Path::new("/tmp/d");
+        assert_eq!(plot_path(Some(out)), out.join("roadvo-demo.png"));
+        assert_eq!(plot_path(None), PathBuf::from("roadvo-demo.png"));
+        assert_eq!(trajectory_path(out, "paper"), out.join("paper.txt"));
+    }
 }

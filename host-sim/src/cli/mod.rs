@@ -44,7 +44,8 @@ pub struct Cli {
 pub enum Command {
     /// Render a synthetic drive with exact ground truth, in KITTI layout.
     Simulate(simulate::SimulateArgs),
-    /// Compare an estimated trajectory with ground truth (KITTI pose files).
+    /// Compare an estimated trajectory with ground truth (KITTI or TUM pose files): the KITTI
+    /// metric, evo's APE and RPE.
     Eval(eval::EvalArgs),
     /// Run the odometer over a sequence (a KITTI folder, a folder or glob of PNG/JPEG frames, or
     /// a video file) and write its trajectory.

@@ -4,9 +4,10 @@ use super::{SequenceArgs, bar};
 use anyhow::{Result, bail};
 use roadvo_sim::eval::evaluate;
 use roadvo_sim::interrupt;
-use roadvo_sim::kitti::{Pose, read_poses, write_poses};
+use roadvo_sim::kitti::{Pose, read_poses};
 use roadvo_sim::plot::{Track, check_format, plot_trajectories};
-use roadvo_sim::run::{BadFrames, RunFiles, RunOutput, config_for, run};
+use roadvo_sim::pose_file::{PoseFormat, write_trajectory};
+use roadvo_sim::run::{BadFrames, FrameSource, RunFiles, RunOutput, config_for, run};
 use std::path::{Path, PathBuf};
 
 /// Run the odometer over a sequence (a KITTI folder, a folder of frames or a video) and write
@@ -15,10 +16,15 @@ use std::path::{Path, PathBuf};
 pub struct RunArgs {
     #[command(flatten)]
     seq: SequenceArgs,
-    /// Where to write the estimated camera-0 poses (KITTI format).
+    /// Where to write the estimated camera-0 poses, in camera 0's frame at the first frame:
+    /// KITTI (12 numbers a line) or, for a `.tum` file, TUM (`timestamp tx ty tz qx qy qz qw`).
     #[arg(long)]
     out: PathBuf,
-    /// Write each frame's estimate and quality as JSON lines.
+    /// The format of --out, whatever its extension.
+    #[arg(long, value_enum)]
+    format: Option<PoseFormat>,
+    /// Write each frame's estimate and quality (vehicle frame): JSON lines, or CSV with a
+    /// header for a `.csv` file.
     #[arg(long)]
     quality: Option<PathBuf>,
     /// Draw the trajectory (with ground truth from SEQ_DIR/../../poses/NN.txt if present).
@@ -67,7 +73,12 @@ impl RunArgs {
                 why.unwrap_or_default()
             );
         }
-        write_poses(&self.out, &output.poses)?;
+        let first = output.first_frame();
+        let times_s: Vec<f64> = (first..first + output.poses.len())
+            .map(|i| seq.time_s(i))
+            .collect();
+        let format = PoseFormat::for_output(&self.out, self.format);
+        write_trajectory(&self.out, format, &output.poses, &times_s)?;
         print_summary(&output, &self.out);
         // Not after a Ctrl-C: the user asked to stop.
         if let Some(p) = self.plot.as_ref().filter(|_| interrupt::check().is_ok()) {
