@@ -238,7 +238,7 @@ pub fn parse_times(text: &str, path: &Path) -> Result<Vec<f64>, KittiError> {
 }
 
 /// A timestamp in seconds to the microsecond, as the odometer is given it.
-fn micros(t_s: f64) -> u64 {
+pub fn micros(t_s: f64) -> u64 {
     (t_s * 1e6).round() as u64
 }
 

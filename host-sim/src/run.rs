@@ -401,7 +401,7 @@ pub fn check_same_camera(
 /// One frame's estimate as a quality record (a JSON line or a CSV row): the odometer's own (never smoothed), in the vehicle
 /// frame of the first frame (x forward, y left, heading counter-clockwise).
 #[derive(Serialize)]
-struct QualityLine {
+pub struct QualityLine {
     frame: usize,
     time_s: f64,
     heading_change_rad: f32,
@@ -427,7 +427,8 @@ struct QualityLine {
 }
 
 impl QualityLine {
-    fn of(frame: usize, time_s: f64, e: &Estimate) -> Self {
+    /// Frame `frame`'s line, taken at `time_s`, for its estimate `e`.
+    pub fn of(frame: usize, time_s: f64, e: &Estimate) -> Self {
         let q = &e.quality;
         Self {
             frame,
