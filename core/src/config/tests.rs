@@ -13,6 +13,7 @@ pub(crate) fn kitti_config() -> Config {
             fy_px: 718.856,
             cx_px: 607.1928,
             cy_px: 185.2157,
+            ..Camera::DEFAULT
         },
         Mount {
             x_m: 1.0,
