@@ -1,11 +1,12 @@
 //! Host side of roadvo: everything around the core that needs `std`. Synthetic drives with exact
-//! ground truth ([`scenario`], [`path`], [`render`], [`simulate`]), mount calibration against
-//! ground truth ([`calibrate`]), the paper's sensitivity study ([`sensitivity`]), the KITTI file
-//! layout ([`kitti`]), the mount file users write for their vehicles ([`mount`]), the KITTI metric
-//! ([`eval`]), runs of the odometer over a sequence ([`run`]), an hour's soak of one odometer
-//! ([`soak`]), plots ([`plot`]) and the firmware example's frame store ([`frame_store`]). Outputs
-//! are written whole or not at all ([`output`]), and a Ctrl-C ends long work cleanly
-//! ([`interrupt`]). The `roadvo` binary is a thin command line over these.
+//! ground truth ([`scenario`], [`path`], [`render`] through [`lens_rays`], [`simulate`]), mount
+//! calibration against ground truth ([`calibrate`]), the paper's sensitivity study
+//! ([`sensitivity`]), the KITTI file layout ([`kitti`]), the mount file users write for their
+//! vehicles ([`mount`]) and the OpenCV calibration it may name ([`opencv_calib`]), the KITTI
+//! metric ([`eval`]), runs of the odometer over a sequence ([`run`]), an hour's soak of one
+//! odometer ([`soak`]), plots ([`plot`]) and the firmware example's frame store
+//! ([`frame_store`]). Outputs are written whole or not at all ([`output`]), and a Ctrl-C ends
+//! long work cleanly ([`interrupt`]). The `roadvo` binary is a thin command line over these.
 
 pub mod calibrate;
 pub mod eval;
@@ -13,7 +14,9 @@ pub mod export;
 pub mod frame_store;
 pub mod interrupt;
 pub mod kitti;
+pub mod lens_rays;
 pub mod mount;
+pub mod opencv_calib;
 pub mod output;
 pub mod path;
 pub mod plot;
