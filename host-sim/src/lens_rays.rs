@@ -81,7 +81,7 @@ impl LensRays {
 mod tests {
     use super::*;
 
-    fn camera(k1: f32) -> Camera {
+    fn camera(k1: f32, k2: f32) -> Camera {
         Camera {
             width_px: 320,
             height_px: 200,
@@ -90,13 +90,17 @@ mod tests {
             cx_px: 160.0,
             cy_px: 100.0,
             k1,
+            k2,
             ..Camera::DEFAULT
         }
     }
 
     #[test]
     fn a_barrel_lens_bends_rays_outwards_and_draws_rectangles_inwards() {
-        let (pin, wide) = (LensRays::new(camera(0.0)), LensRays::new(camera(-0.3)));
+        let (pin, wide) = (
+            LensRays::new(camera(0.0, 0.0)),
+            LensRays::new(camera(-0.3, 0.1)),
+        );
         let (a, b) = (
             pin.ray(300.0, 190.0).unwrap(),
             wide.ray(300.0, 190.0).unwrap(),
