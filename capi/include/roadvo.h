@@ -13,7 +13,7 @@
 
 // Words of a configuration ([`roadvo_configure`]): the camera's, the mount's and the odometer
 // settings', each in the core's order (`roadvo::wire::config_words`).
-#define ROADVO_CONFIG_WORDS 53
+#define ROADVO_CONFIG_WORDS 58
 
 // Words of an estimate's trace record ([`roadvo_trace_record`]): what the firmware examples
 // print and the host's `roadvo run --trace` writes, compared bit for bit.
@@ -21,12 +21,12 @@
 
 #if defined(__arm__)
 // Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 32-bit Arm target.
-#define ROADVO_ODOMETER_SIZE 57544
+#define ROADVO_ODOMETER_SIZE 57568
 #endif
 
 #if defined(__x86_64__)
 // Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 64-bit host.
-#define ROADVO_ODOMETER_SIZE 57648
+#define ROADVO_ODOMETER_SIZE 57672
 #endif
 
 // Alignment of an odometer's storage, bytes.
@@ -87,8 +87,9 @@ typedef enum RoadvoStatus {
   ROADVO_STATUS_TIMESTAMP_NOT_INCREASING = 22,
   // The frame was refused for a reason this version of the API does not name.
   ROADVO_STATUS_FRAME_OTHER = 23,
-  // A focal length gives a field of view outside 1..170 deg, or the principal point lies
-  // more than a frame outside the image.
+  // A focal length gives a field of view outside 1..170 deg, the principal point lies
+  // more than a frame outside the image, or the lens distortion does not invert over the
+  // frame.
   ROADVO_STATUS_IMPLAUSIBLE_CAMERA = 24,
 } RoadvoStatus;
 

@@ -31,7 +31,7 @@ use roadvo::{
 
 /// Words of a configuration ([`roadvo_configure`]): the camera's, the mount's and the odometer
 /// settings', each in the core's order (`roadvo::wire::config_words`).
-pub const ROADVO_CONFIG_WORDS: usize = 53;
+pub const ROADVO_CONFIG_WORDS: usize = 58;
 
 /// Words of an estimate's trace record ([`roadvo_trace_record`]): what the firmware examples
 /// print and the host's `roadvo run --trace` writes, compared bit for bit.
@@ -39,10 +39,10 @@ pub const ROADVO_TRACE_WORDS: usize = 11;
 
 /// Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 32-bit Arm target.
 #[cfg(target_arch = "arm")]
-pub const ROADVO_ODOMETER_SIZE: usize = 57_544;
+pub const ROADVO_ODOMETER_SIZE: usize = 57_568;
 /// Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 64-bit host.
 #[cfg(target_arch = "x86_64")]
-pub const ROADVO_ODOMETER_SIZE: usize = 57_648;
+pub const ROADVO_ODOMETER_SIZE: usize = 57_672;
 
 /// Alignment of an odometer's storage, bytes.
 pub const ROADVO_ODOMETER_ALIGN: usize = 8;
@@ -121,8 +121,9 @@ pub enum RoadvoStatus {
     TimestampNotIncreasing = 22,
     /// The frame was refused for a reason this version of the API does not name.
     FrameOther = 23,
-    /// A focal length gives a field of view outside 1..170 deg, or the principal point lies
-    /// more than a frame outside the image.
+    /// A focal length gives a field of view outside 1..170 deg, the principal point lies
+    /// more than a frame outside the image, or the lens distortion does not invert over the
+    /// frame.
     ImplausibleCamera = 24,
 }
 
@@ -828,7 +829,9 @@ fn status_text_c(status: RoadvoStatus) -> &'static core::ffi::CStr {
         S::WrongSize => c"the frame's size is not the configured one",
         S::TimestampNotIncreasing => c"the timestamp does not follow the previous frame's",
         S::FrameOther => c"the frame was refused",
-        S::ImplausibleCamera => c"the focal lengths or principal point do not fit the frame's size",
+        S::ImplausibleCamera => {
+            c"the focal lengths, principal point or lens distortion do not fit the frame's size"
+        }
     }
 }
 

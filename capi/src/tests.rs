@@ -17,6 +17,7 @@ fn kitti() -> Config {
         fy_px: 718.856,
         cx_px: 607.1928,
         cy_px: 185.2157,
+        ..Camera::DEFAULT
     };
     let mount = Mount {
         x_m: 1.0,

@@ -10,11 +10,13 @@
 //! three column sums and a sliding sum of three columns (the same integers as a direct 3x3 sum),
 //! the response `det - k trace^2` with k = 5/128 in `i64`, stored shifted right by
 //! `RESPONSE_SHIFT` as `i32`. A corner is a 3x3 local maximum at or above the configured
-//! threshold; a parabola through its neighbours' responses gives its sub-pixel position.
+//! threshold; a parabola through its neighbours' responses gives its sub-pixel position, which
+//! the lens's model then takes to the ideal image ([`crate::lens`]; untouched without
+//! distortion).
 
 use crate::config::{DETECTOR_BORDER_PX, ValidConfig, inside_border};
 use crate::frame::Frame;
-use crate::projection::{GroundPoint, Pixel};
+use crate::projection::{Camera, GroundPoint, Pixel};
 use fixed::types::I16F16;
 use heapless::binary_heap::{BinaryHeap, Min};
 
@@ -39,9 +41,10 @@ const _: () = assert!(
 pub struct Corner {
     /// Harris response, in units of (Sobel gradient)^4 / 2^16.
     pub response: i32,
-    /// Row, pixels, sub-pixel.
+    /// Row, pixels, sub-pixel: in the ideal (pinhole) image once [`detect`] returns it (the
+    /// frame's row for a camera without distortion).
     pub v_px: I16F16,
-    /// Column, pixels, sub-pixel.
+    /// Column, pixels, sub-pixel: in the ideal image, as the row.
     pub u_px: I16F16,
 }
 
@@ -52,6 +55,20 @@ impl Corner {
             u_px: self.u_px.to_num(),
             v_px: self.v_px.to_num(),
         }
+    }
+
+    /// The corner at its ideal (pinhole) image position through `camera`'s lens (itself,
+    /// untouched, for a pinhole camera); `None` where the position has none.
+    pub fn undistorted(self, camera: &Camera) -> Option<Self> {
+        if camera.is_pinhole() {
+            return Some(self);
+        }
+        let px = camera.undistort(self.pixel())?;
+        Some(Self {
+            u_px: I16F16::checked_from_num(px.u_px)?,
+            v_px: I16F16::checked_from_num(px.v_px)?,
+            ..self
+        })
     }
 }
 
@@ -212,6 +229,7 @@ fn strip<F: Frame + ?Sized, const K: usize>(
     limit: usize,
 ) {
     let gx0 = usize::from(x0) - 2;
+    let camera = &cfg.config().camera;
     // At most a strip: the bound also lets the compiler drop the buffers' index checks.
     let ncols = (usize::from(x1 - x0) + 1).min(STRIP);
     for yg in top - 2..=bottom + 2 {
@@ -292,6 +310,9 @@ fn strip<F: Frame + ?Sized, const K: usize>(
                 response: r,
                 v_px: v,
                 u_px: u,
+            };
+            let Some(corner) = corner.undistorted(camera) else {
+                continue;
             };
             let Some(ground) = cfg.projection().nominal.backproject(corner.pixel()) else {
                 continue;
@@ -478,8 +499,9 @@ mod tests {
         ) {
             // A small camera pitched down, so that small frames hold its window.
             let mut c = kitti_config();
-            c.camera = crate::projection::Camera {
+            c.camera = Camera {
                 width_px: 80, height_px: 60, fx_px: 60.0, fy_px: 60.0, cx_px: 40.0, cy_px: 30.0,
+                ..Camera::DEFAULT
             };
             c.mount.pitch_rad = -15.0 * core::f32::consts::PI / 180.0;
             let cfg = c.validate().unwrap();

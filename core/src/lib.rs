@@ -17,6 +17,7 @@
 //! let camera = Camera {
 //!     width_px: 1241, height_px: 376,
 //!     fx_px: 718.856, fy_px: 718.856, cx_px: 607.19, cy_px: 185.22,
+//!     ..Camera::DEFAULT // no lens distortion
 //! };
 //! let mount = Mount { x_m: 1.2, height_m: 1.65, ..Mount::DEFAULT };
 //! let config = Config::with_defaults(camera, mount).validate()?;
@@ -47,6 +48,8 @@
 //! - [`projection`]: camera intrinsics, the mount, and the ground-plane homographies that turn a
 //!   pixel into a point on the road, or into the quadrilateral where it may lie given the body's
 //!   attitude on its suspension (paper §2.1).
+//! - [`lens`]: the lens's distortion (OpenCV's radial-tangential model): corner positions
+//!   undistorted to the ideal image before they become rays or road points.
 //! - [`harris`]: integer Harris corners inside the ground window, the strongest per side.
 //! - [`heading`]: the heading change from corners over the whole image: FAST corners, patches
 //!   matched between frames, a consensus over the planar motion's epipolar constraint.
@@ -71,6 +74,7 @@ pub mod config;
 pub mod frame;
 pub mod harris;
 pub mod heading;
+pub mod lens;
 pub mod method;
 pub mod motion;
 pub mod odometer;

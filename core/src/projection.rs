@@ -18,8 +18,9 @@ use crate::setting::settings;
 use nalgebra::{ArrayStorage, Matrix3, Vector3};
 
 settings! {
-    /// The camera: its frames' size and the pinhole intrinsics of the (rectified, undistorted)
-    /// image, a mount file's `[camera]` section.
+    /// The camera: its frames' size, its pinhole intrinsics and its lens distortion (OpenCV's
+    /// radial-tangential model, [`crate::lens`]; all zero for a rectified, undistorted image), a
+    /// mount file's `[camera]` section.
     pub struct Camera {
         /// Columns of a frame, pixels.
         width_px: u16 = val(0) required, min 1 => "width_px";
@@ -33,6 +34,17 @@ settings! {
         cx_px: f32 = val(0.0) required, min -100000.0, max 100000.0 => "cx_px";
         /// Principal point, row, pixels.
         cy_px: f32 = val(0.0) required, min -100000.0, max 100000.0 => "cy_px";
+        /// Lens distortion: OpenCV's first radial coefficient `k1` (of r^2, r the distance from
+        /// the principal point in focal lengths), no unit; 0: none (negative: barrel).
+        k1: f32 = val(0.0), min -10.0, max 10.0 => "k1";
+        /// Lens distortion: OpenCV's second radial coefficient `k2` (of r^4), no unit.
+        k2: f32 = val(0.0), min -100.0, max 100.0 => "k2";
+        /// Lens distortion: OpenCV's first tangential coefficient `p1`, no unit.
+        p1: f32 = val(0.0), min -1.0, max 1.0 => "p1";
+        /// Lens distortion: OpenCV's second tangential coefficient `p2`, no unit.
+        p2: f32 = val(0.0), min -1.0, max 1.0 => "p2";
+        /// Lens distortion: OpenCV's third radial coefficient `k3` (of r^6), no unit.
+        k3: f32 = val(0.0), min -1000.0, max 1000.0 => "k3";
     }
 }
 
@@ -56,6 +68,7 @@ impl Camera {
             fy_px: p[5],
             cx_px: p[2],
             cy_px: p[6],
+            ..Self::DEFAULT
         }
     }
 

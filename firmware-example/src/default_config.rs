@@ -13,6 +13,7 @@ pub const CONFIG: roadvo::Config = roadvo::Config {
         fy_px: 718.856,
         cx_px: 607.1928,
         cy_px: 185.2157,
+        ..roadvo::Camera::DEFAULT
     },
     mount: roadvo::Mount {
         x_m: 1.0,

@@ -50,6 +50,7 @@ fn config(c: &Rig) -> Config {
             fy_px: wf * (0.2 + f32::from(c.focal) / 100.0),
             cx_px: wf * f32::from(c.cx) / 255.0,
             cy_px: hf * f32::from(c.cy) / 255.0,
+            ..Camera::DEFAULT
         },
         Mount {
             x_m: 1.0,

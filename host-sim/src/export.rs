@@ -183,6 +183,7 @@ mod tests {
             fy_px: 718.856,
             cx_px: 607.1928,
             cy_px: 185.2157,
+            ..Camera::DEFAULT
         };
         let mut c = Config::with_defaults(
             camera,

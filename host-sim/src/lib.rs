@@ -1,10 +1,12 @@
 //! Host side of roadvo: everything around the core that needs `std`. Synthetic drives with exact
-//! ground truth ([`scenario`], [`path`], [`render`], [`simulate`]), mount calibration against
-//! ground truth ([`calibrate`]), the paper's sensitivity study ([`sensitivity`]), the KITTI file
-//! layout ([`kitti`]) and the others a sequence may have ([`layout`]: folders of frames
-//! ([`image_files`]) and videos ([`video`])), the mount file users write for their vehicles
-//! ([`mount`]), the KITTI metric ([`eval`]), runs of the odometer over a sequence ([`run`]), an
-//! hour's soak of one odometer ([`soak`]), plots ([`plot`]) and the firmware example's frame
+//! ground truth ([`scenario`], [`path`], [`render`] through [`lens_rays`], [`simulate`]), mount
+//! calibration against ground truth ([`calibrate`]), the paper's sensitivity study
+//! ([`sensitivity`]), the KITTI file layout ([`kitti`]) and the others a sequence may have
+//! ([`layout`]: folders of frames ([`image_files`]) and videos ([`video`])), the mount file users
+//! write for their vehicles ([`mount`]) and the OpenCV calibration it may name
+//! ([`opencv_calib`]), trajectory files ([`pose_file`], [`associate`]), the KITTI metric
+//! ([`eval`]) and evo's ([`ape`]), runs of the odometer over a sequence ([`run`], [`quality`]),
+//! an hour's soak of one odometer ([`soak`]), plots ([`plot`]) and the firmware example's frame
 //! store ([`frame_store`]). Outputs are written whole or not at all ([`output`]), inputs read
 //! within size limits ([`input`]), and a Ctrl-C ends long work cleanly ([`interrupt`]); [`view`]
 //! draws what the odometer sees. The `roadvo` binary is a thin command line over these.
@@ -20,7 +22,9 @@ pub mod input;
 pub mod interrupt;
 pub mod kitti;
 pub mod layout;
+pub mod lens_rays;
 pub mod mount;
+pub mod opencv_calib;
 pub mod output;
 pub mod path;
 pub mod plot;

@@ -3,7 +3,9 @@
 //! own types (`roadvo::Camera`, `Mount`, `Settings`, each setting defined once there). The keys,
 //! units, defaults and ranges are listed in `docs/mount-file.md` (a test holds the two together).
 //! `[camera]` may be left out where the sequence carries its calibration (KITTI's `calib.txt` and
-//! the frames' size): one mount file then serves every sequence of a vehicle.
+//! the frames' size): one mount file then serves every sequence of a vehicle; or the file may
+//! name an OpenCV calibration instead (`opencv_calibration = "FILE"` at its top,
+//! [`crate::opencv_calib`]).
 
 use crate::input::{Input, read_text};
 use crate::kitti::Sequence;
@@ -29,6 +31,9 @@ pub struct MountFile {
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct MountFileText {
+    /// An OpenCV calibration file that gives the camera, relative to the mount file.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    opencv_calibration: Option<std::path::PathBuf>,
     #[serde(skip_serializing_if = "Option::is_none")]
     camera: Option<Camera>,
     mount: Mount,
@@ -92,7 +97,22 @@ impl MountFile {
     pub fn parse(text: &str, path: &Path, camera: Option<&Camera>) -> Result<Self> {
         let file: MountFileText =
             toml::from_str(text).with_context(|| format!("in mount file {}", path.display()))?;
-        let Some(camera) = file.camera.or_else(|| camera.copied()) else {
+        let calibration = match (&file.opencv_calibration, &file.camera) {
+            (Some(_), Some(_)) => bail!(
+                "mount file {} has both opencv_calibration and [camera]: give the camera once",
+                path.display()
+            ),
+            (Some(calib), None) => {
+                let dir = path.parent().unwrap_or(Path::new(""));
+                Some(
+                    crate::opencv_calib::read(&dir.join(calib)).with_context(|| {
+                        format!("opencv_calibration of mount file {}", path.display())
+                    })?,
+                )
+            }
+            (None, _) => None,
+        };
+        let Some(camera) = calibration.or(file.camera).or_else(|| camera.copied()) else {
             bail!(
                 "mount file {} has no [camera] section, and there is no sequence to take the \
                  camera from",
@@ -125,8 +145,14 @@ impl MountFile {
                 .iter()
                 .filter_map(|f| {
                     let v = self.get(section, f.key)?;
-                    let default = Settings::DEFAULT.get(f.key);
-                    (section != "odometer" || default != Some(v))
+                    // Optional camera keys (the lens's distortion) and settings only where they
+                    // differ from their defaults; the mount whole.
+                    let default = match section {
+                        "camera" => Camera::DEFAULT.get(f.key),
+                        "odometer" => Settings::DEFAULT.get(f.key),
+                        _ => None,
+                    };
+                    (f.required || default != Some(v))
                         .then(|| format!("{} = {}\n", f.key, toml_text(v)))
                 })
                 .collect();
@@ -290,6 +316,38 @@ cy_px = 185.2157
 x_m = 1.0
 height_m = 1.65
 "#;
+
+    #[test]
+    fn opencv_calibration_gives_the_camera_relative_to_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::create_dir(dir.path().join("lens")).unwrap();
+        let calib = dir.path().join("lens/calibration.yaml");
+        std::fs::write(&calib, crate::opencv_calib::SAMPLE_YAML).unwrap();
+        let mount = dir.path().join("mount.toml");
+        let text = "opencv_calibration = \"lens/calibration.yaml\"\n\n[mount]\nx_m = 1.0\nheight_m = 1.4\n";
+        std::fs::write(&mount, text).unwrap();
+        let f = MountFile::read(&mount, None).unwrap();
+        assert_eq!(
+            f.camera,
+            crate::opencv_calib::parse(crate::opencv_calib::SAMPLE_YAML).unwrap()
+        );
+        assert_eq!((f.camera.k1, f.camera.width_px), (-0.3, 1280));
+        // Written out, the camera is inline, its distortion with it, and reads back the same.
+        let written = f.to_text(true, "");
+        assert!(
+            written.contains("k1 = -0.3") && !written.contains("k3"),
+            "{written}"
+        );
+        assert_eq!(parse(&written), f);
+        // Both ways of giving the camera at once: refused.
+        std::fs::write(
+            &mount,
+            format!("opencv_calibration = \"lens/calibration.yaml\"\n{KITTI}"),
+        )
+        .unwrap();
+        let e = format!("{:#}", MountFile::read(&mount, None).unwrap_err());
+        assert!(e.contains("both opencv_calibration and [camera]"), "{e}");
+    }
 
     fn parse(text: &str) -> MountFile {
         let f: MountFileText = toml::from_str(text).unwrap();

@@ -9,10 +9,11 @@
 //! and brick or panel walls, street lights and sign posts, trees, parked cars. Everything is a
 //! pure function of world position and the seed, so frames render independently and in parallel.
 
+use crate::lens_rays::LensRays;
 use crate::path::{Path, WorldPose};
 use crate::scenario::{Crown, Kerb, Scenario};
 use image::GrayImage;
-use roadvo::{Attitude, Camera, Mount};
+use roadvo::{Attitude, Mount};
 
 /// A 64-bit mix (splitmix64's finaliser): decorrelates neighbouring integer inputs.
 fn mix(mut z: u64) -> u64 {
@@ -340,7 +341,7 @@ pub struct FrameState {
 pub struct Scene {
     index: PathIndex,
     surface: Surface,
-    camera: Camera,
+    rays: LensRays,
     mount: Mount,
     width: u32,
     height: u32,
@@ -379,7 +380,7 @@ impl Scene {
             index,
             surface_top_m: surface.range_m().1,
             surface,
-            camera: cfg.camera,
+            rays: LensRays::new(cfg.camera),
             mount: cfg.mount,
             width: u32::from(cfg.camera.width_px),
             height: u32::from(cfg.camera.height_px),
@@ -571,7 +572,7 @@ impl Scene {
             let q = [p[0] - o[0], p[1] - o[1], p[2] - o[2]];
             std::array::from_fn(|j| rot[0][j] * q[0] + rot[1][j] * q[1] + rot[2][j] * q[2])
         });
-        let k = &self.camera;
+        let k = self.rays.camera();
         let (fx, fy) = (f64::from(k.fx_px), f64::from(k.fy_px));
         let (px, py) = (f64::from(k.cx_px), f64::from(k.cy_px));
         let (mut lo, mut hi, mut depth) = ([f64::MAX; 2], [f64::MIN; 2], f64::MAX);
@@ -598,6 +599,7 @@ impl Scene {
         if lo[0] > hi[0] {
             return None;
         }
+        let (lo, hi) = self.rays.seen(lo, hi)?;
         let size = [i64::from(self.width), i64::from(self.height)];
         let mut rect = [0i64; 4];
         for a in 0..2 {
@@ -627,9 +629,6 @@ impl Scene {
             .pose
             .to_world(f64::from(self.mount.x_m), f64::from(self.mount.y_m));
         let o = [cx, cy, f64::from(self.mount.height_m)];
-        let k = &self.camera;
-        let (fx, fy) = (f64::from(k.fx_px), f64::from(k.fy_px));
-        let (px, py) = (f64::from(k.cx_px), f64::from(k.cy_px));
         let n = self.supersample;
         let inv_n = 1.0 / f64::from(n);
         let frame_salt = mix(self.seed ^ 0x5eed ^ index.wrapping_mul(0x2545_f491_4f6c_dd1d));
@@ -692,7 +691,10 @@ impl Scene {
                         // Pixel centres sit at integer coordinates.
                         let su = f64::from(u) - 0.5 + (f64::from(i) + 0.5) * inv_n;
                         let sv = f64::from(v) - 0.5 + (f64::from(j) + 0.5) * inv_n;
-                        let dc = [(su - px) / fx, (sv - py) / fy, 1.0];
+                        // Black where the lens gives no ray (validation refuses such a lens).
+                        let Some(dc) = self.rays.ray(su, sv) else {
+                            continue;
+                        };
                         let d = std::array::from_fn(|r| {
                             rot[r][0] * dc[0] + rot[r][1] * dc[1] + rot[r][2] * dc[2]
                         });

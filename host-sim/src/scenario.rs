@@ -448,7 +448,7 @@ pub struct Scenario {
 pub const BUILT_IN: [&str; 3] = ["s-course", "kitti-like", "town"];
 
 /// The built-in overlays' names: partial scenarios merged over a scenario (`--overlay`).
-pub const BUILT_IN_OVERLAYS: [&str; 4] = ["suspension", "traffic", "slip", "crossing"];
+pub const BUILT_IN_OVERLAYS: [&str; 5] = ["suspension", "traffic", "slip", "crossing", "wide-lens"];
 
 /// Merges `overlay` into `base`: tables merge key by key, arrays of tables (`[[vehicle]]`)
 /// are appended to, anything else is replaced.
@@ -588,6 +588,7 @@ impl Scenario {
                 "traffic" => Some(include_str!("../scenarios/traffic.toml")),
                 "slip" => Some(include_str!("../scenarios/slip.toml")),
                 "crossing" => Some(include_str!("../scenarios/crossing.toml")),
+                "wide-lens" => Some(include_str!("../scenarios/wide-lens.toml")),
                 _ => None,
             })?;
             let overlay: toml::Table =

@@ -314,6 +314,34 @@ fn default_method_is_far_ahead_of_the_papers() {
     assert!(d * 5.0 < p, "default {d:.2}% against paper {p:.2}%");
 }
 
+#[test]
+fn a_wide_lens_is_followed_as_well_as_a_pinhole_once_the_mount_file_holds_its_distortion() {
+    // 200 frames (about 150 m) of kitti-like with suspension, rendered through a pinhole and
+    // through a wide lens's barrel distortion (k1 = -0.3, k2 = 0.1: 17 px at the frame's
+    // corners); scripts/lens prints the same figures.
+    let t_err = |d: &Drive| d.report.t_err_pct.unwrap();
+    let pinhole = t_err(&drive(
+        "kitti-like",
+        &["suspension"],
+        200,
+        Method::PitchVote,
+    ));
+    let runs: [Run; 2] = [
+        (Method::PitchVote, Box::new(|_: &mut MountFile| {})),
+        (
+            Method::PitchVote,
+            Box::new(|m: &mut MountFile| {
+                (m.camera.k1, m.camera.k2) = (0.0, 0.0);
+            }),
+        ),
+    ];
+    let drives = drives_with("kitti-like", &["suspension", "wide-lens"], 200, &runs);
+    let (lens, left_out) = (t_err(&drives[0]), t_err(&drives[1]));
+    let say = format!("t_err: pinhole {pinhole:.2}%, lens {lens:.2}%, left out {left_out:.2}%");
+    assert!(lens <= 1.1 * pinhole, "{say}");
+    assert!(left_out > 1.5 * lens, "{say}");
+}
+
 /// The town drive's first `frames` (seed 1), `overlays` on top, run three times: with the
 /// image's heading on the true mount, and on a mount yawed and rolled by 1 deg (a calibration
 /// error) with the image's heading and with the ground window's alone.

@@ -25,12 +25,15 @@ pub enum ConfigError {
     FocalLengthNotPositive,
     /// A focal length gives a field of view outside [`MIN_FIELD_OF_VIEW_DEG`]..
     /// [`MAX_FIELD_OF_VIEW_DEG`] across the image, or the principal point lies more than a
-    /// frame's width or height outside the image: not a camera that sees a road.
+    /// frame's width or height outside the image, or the lens's distortion does not invert over
+    /// the frame (field `k1`: it folds the image, [`crate::lens`]): not a camera that sees a
+    /// road.
     ///
     /// [`MIN_FIELD_OF_VIEW_DEG`]: crate::config::MIN_FIELD_OF_VIEW_DEG
     /// [`MAX_FIELD_OF_VIEW_DEG`]: crate::config::MAX_FIELD_OF_VIEW_DEG
     ImplausibleCamera {
-        /// The setting's name (`fx_px`, `fy_px`, `cx_px` or `cy_px`).
+        /// The setting's name (`fx_px`, `fy_px`, `cx_px`, `cy_px`, or `k1` for the
+        /// distortion).
         field: &'static str,
     },
     /// The camera is at or below the road (`mount.height_m <= 0`).
@@ -77,6 +80,10 @@ impl fmt::Display for ConfigError {
                 key(field),
                 crate::config::MIN_FIELD_OF_VIEW_DEG,
                 crate::config::MAX_FIELD_OF_VIEW_DEG
+            ),
+            Self::ImplausibleCamera { field } if field.starts_with('k') => f.write_str(
+                "the lens distortion (k1, k2, p1, p2, k3) does not map the frame one to one: \
+                 check the coefficients against the calibration",
             ),
             Self::ImplausibleCamera { field } => write!(
                 f,

@@ -91,6 +91,9 @@ impl Config {
         k.check_ranges().map_err(out_of_range)?;
         m.check_ranges().map_err(out_of_range)?;
         s.check_ranges().map_err(out_of_range)?;
+        if !k.is_pinhole() && k.ideal_frame_bounds().is_none() {
+            return Err(ConfigError::ImplausibleCamera { field: "k1" });
+        }
         if s.window_far_m <= s.window_near_m {
             return Err(ConfigError::EmptyWindow);
         }

@@ -13,6 +13,7 @@ pub(crate) fn kitti_config() -> Config {
             fy_px: 718.856,
             cx_px: 607.1928,
             cy_px: 185.2157,
+            ..Camera::DEFAULT
         },
         Mount {
             x_m: 1.0,
@@ -50,6 +51,40 @@ fn kitti_config_is_valid_and_roi_is_the_lower_band() {
         ground_only.validate().unwrap().rows_read(),
         roi.top_px - 3..376
     );
+}
+
+#[test]
+fn a_wide_lens_s_roi_holds_the_window_as_the_lens_draws_it() {
+    let mut c = kitti_config();
+    (c.camera.k1, c.camera.k2) = (-0.3, 0.1);
+    let v = c.validate().unwrap();
+    let (roi, pinhole_roi) = (v.roi(), kitti_config().validate().unwrap().roi());
+    // Barrel distortion draws the window nearer the centre: its far edge (below the centre)
+    // higher; and more of the road is seen to the sides.
+    assert!(roi.top_px < pinhole_roi.top_px, "{roi:?} {pinhole_roi:?}");
+    assert!(roi.left_px < pinhole_roi.left_px, "{roi:?} {pinhole_roi:?}");
+    let k = &c.camera;
+    for ahead in [3.0, 6.0, 9.0, 12.0] {
+        for left in [-3.0, -1.5, 0.0, 1.5, 3.0] {
+            let p = v.window_point(ahead, left);
+            let Some(ideal) = v.projection().nominal.project(p) else {
+                continue;
+            };
+            let px = k.distort(ideal);
+            let in_frame = (0.0..=1240.0).contains(&px.u_px) && (0.0..=375.0).contains(&px.v_px);
+            if in_frame {
+                let (u, row) = (px.u_px, px.v_px);
+                assert!(
+                    f32::from(roi.left_px) <= u && u <= f32::from(roi.right_px),
+                    "{px:?}"
+                );
+                assert!(
+                    f32::from(roi.top_px) <= row && row <= f32::from(roi.bottom_px),
+                    "{px:?}"
+                );
+            }
+        }
+    }
 }
 
 #[test]
@@ -126,6 +161,9 @@ fn every_bad_value_has_its_error() {
     check(&|c| c.camera.fy_px = 1e5, implausible("fy_px"));
     check(&|c| c.camera.cx_px = -1e4, implausible("cx_px"));
     check(&|c| c.camera.cy_px = 1e4, implausible("cy_px"));
+    // A lens whose polynomial folds within the frame.
+    check(&|c| c.camera.k1 = -3.0, implausible("k1"));
+    check(&|c| c.camera.k1 = -11.0, out_of_range("k1"));
     check(
         &|c| c.mount.height_m = 0.0,
         ConfigError::CameraNotAboveGround,

@@ -5,7 +5,7 @@
 //! camera's yaw, so the same window serves a rear-facing camera.
 
 use super::ValidConfig;
-use crate::projection::GroundPoint;
+use crate::projection::{Camera, GroundPoint};
 
 /// Smallest width and height of the image region of interest, pixels.
 pub const MIN_ROI_PX: u16 = 8;
@@ -56,13 +56,18 @@ impl WindowImage {
     /// one of the extremal attitudes.
     pub(crate) fn of(cfg: &ValidConfig) -> Option<Self> {
         let s = &cfg.config.settings;
-        let size = &cfg.config.camera;
-        let (max_u, max_v) = (f32::from(size.width_px - 1), f32::from(size.height_px - 1));
+        let camera = &cfg.config.camera;
+        let (max_u, max_v) = (
+            f32::from(camera.width_px - 1),
+            f32::from(camera.height_px - 1),
+        );
         let proj = &cfg.projection;
         let far_px = proj
             .nominal
             .project(cfg.window_point(s.window_far_m, 0.0))?;
-        let inside = (0.0..=max_u).contains(&far_px.u_px) && (0.0..=max_v).contains(&far_px.v_px);
+        let far_seen = camera.distort(far_px);
+        let inside =
+            (0.0..=max_u).contains(&far_seen.u_px) && (0.0..=max_v).contains(&far_seen.v_px);
         if !inside || proj.observe(far_px).is_none() {
             return None;
         }
@@ -85,6 +90,9 @@ impl WindowImage {
             let px = proj.nominal.project(GroundPoint { x_m: x, y_m: y })?;
             image.push([px.u_px, px.v_px]);
         }
+        if !camera.is_pinhole() {
+            image = Self::through_lens(camera, &image)?;
+        }
         let image = image
             .clip(|[u, _]| u)
             .clip(|[u, _]| max_u - u)
@@ -103,6 +111,27 @@ impl WindowImage {
             roi,
             polygon: image,
         })
+    }
+}
+
+impl WindowImage {
+    /// The rectangle of the frame that holds the window's ideal (pinhole) image `ideal` as the
+    /// lens draws it: `ideal` cut to the ideal image of the frame, where the lens model holds,
+    /// and the bounds of its distorted edges (the lens bows them: conservatively, the
+    /// rectangle and not the curved shape). `None` if the lens does not invert over the frame.
+    fn through_lens(camera: &Camera, ideal: &Polygon) -> Option<Polygon> {
+        let (lo, hi) = camera.ideal_frame_bounds()?;
+        let seen = ideal
+            .clip(|[u, _]| u - lo[0])
+            .clip(|[u, _]| hi[0] - u)
+            .clip(|[_, v]| v - lo[1])
+            .clip(|[_, v]| hi[1] - v);
+        let (lo, hi) = camera.distorted_bounds(seen.points())?;
+        let mut rect = Polygon::default();
+        for p in [lo, [hi[0], lo[1]], hi, [lo[0], hi[1]]] {
+            rect.push(p);
+        }
+        Some(rect)
     }
 }
 

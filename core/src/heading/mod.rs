@@ -28,6 +28,7 @@ pub mod patch;
 use crate::config::ValidConfig;
 use crate::frame::Frame;
 use crate::motion::Motion;
+use crate::projection::Pixel;
 use consensus::{Fit, Pair, Search};
 use corners::{Grid, ImageCorner};
 use epipolar::{Model, Params};
@@ -223,10 +224,26 @@ impl<const K: usize> ImageHeading<K> {
         }
     }
 
-    /// The ray of pixel (`u`, `v`): normalised image coordinates.
-    fn ray(cfg: &ValidConfig, u: f32, v: f32) -> Vector3<f32> {
+    /// The ray of frame position (`u`, `v`), pixels: normalised image coordinates of its
+    /// undistorted position; `None` where it has none.
+    fn ray(cfg: &ValidConfig, u: f32, v: f32) -> Option<Vector3<f32>> {
         let k = &cfg.config().camera;
-        Vector3::new((u - k.cx_px) / k.fx_px, (v - k.cy_px) / k.fy_px, 1.0)
+        let p = k.undistort(Pixel { u_px: u, v_px: v })?;
+        Some(Vector3::new(
+            (p.u_px - k.cx_px) / k.fx_px,
+            (p.v_px - k.cy_px) / k.fy_px,
+            1.0,
+        ))
+    }
+
+    /// The frame position, pixels, of the ray `x` (camera frame, in front of the camera).
+    fn seen_at(cfg: &ValidConfig, x: Vector3<f32>) -> (f32, f32) {
+        let k = &cfg.config().camera;
+        let p = k.distort(Pixel {
+            u_px: k.cx_px + k.fx_px * x.x / x.z,
+            v_px: k.cy_px + k.fy_px * x.y / x.z,
+        });
+        (p.u_px, p.v_px)
     }
 
     /// Pairs the last frame's features with this frame's candidates; how many.
@@ -238,7 +255,6 @@ impl<const K: usize> ImageHeading<K> {
         ratio: f32,
     ) -> usize {
         let s = cfg.settings();
-        let k = &cfg.config().camera;
         // The camera's rotation under the predicted heading change alone (points far away).
         let rotation = self.model.rotation(&Params {
             alpha: prediction.map_or(0.0, |m| m.heading_change_rad),
@@ -263,14 +279,14 @@ impl<const K: usize> ImageHeading<K> {
                     (TRACKED_REACH_PX, TRACKED_REACH_PX),
                 ),
                 None => {
-                    let x = rotation * Self::ray(cfg, pu, pv);
+                    let Some(ray) = Self::ray(cfg, pu, pv) else {
+                        continue;
+                    };
+                    let x = rotation * ray;
                     if x.z <= 0.0 {
                         continue;
                     }
-                    (
-                        (k.cx_px + k.fx_px * x.x / x.z, k.cy_px + k.fy_px * x.y / x.z),
-                        NEW_REACH_PX,
-                    )
+                    (Self::seen_at(cfg, x), NEW_REACH_PX)
                 }
             };
             // The candidates within reach nearest the predicted place.
@@ -334,8 +350,12 @@ impl<const K: usize> ImageHeading<K> {
             let Some(Some(c)) = candidates.get(j) else {
                 continue;
             };
-            let x1 = Self::ray(cfg, f32::from(p.u), f32::from(p.v));
-            let x2 = Self::ray(cfg, u, v);
+            let (Some(x1), Some(x2)) = (
+                Self::ray(cfg, f32::from(p.u), f32::from(p.v)),
+                Self::ray(cfg, u, v),
+            ) else {
+                continue;
+            };
             let _ = self.pairs.push(Pair { x1, x2 });
             let moved = |a: u16, b: u16| ((f32::from(a) - f32::from(b)) * FLOW_SCALE) as i16;
             if let Some(flow) = self.flow.as_flattened_mut().get_mut(j) {

@@ -12,7 +12,8 @@ pub struct SimulateArgs {
     /// A built-in scenario (s-course, kitti-like) or a scenario TOML file.
     #[arg(long, default_value = "s-course")]
     scenario: String,
-    /// Partial scenarios merged over it, in order: built-in (suspension, traffic, slip) or files.
+    /// Partial scenarios merged over it, in order: built-in (suspension, traffic, slip,
+    /// crossing, wide-lens) or files.
     #[arg(long)]
     overlay: Vec<String>,
     /// Output folder: OUT/sequences/00/..., OUT/poses/00.txt.

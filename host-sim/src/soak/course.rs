@@ -68,6 +68,8 @@ fn scaled(camera: Camera, factor: u16) -> Camera {
         fy_px: camera.fy_px / f,
         cx_px: centre(camera.cx_px),
         cy_px: centre(camera.cy_px),
+        // Coefficients of normalised coordinates: the same at any scale.
+        ..camera
     }
 }
 
