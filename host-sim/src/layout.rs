@@ -162,7 +162,7 @@ pub fn no_calibration(seq: &Sequence) -> String {
     };
     format!(
         "{} is {what}, which carries no camera calibration: its mount file needs a [camera] \
-         section (docs/mount-file.md)",
+         section or an opencv_calibration (docs/mount-file.md)",
         seq.dir.display()
     )
 }

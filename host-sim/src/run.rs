@@ -344,13 +344,16 @@ pub fn mount_for(seq: &Sequence, mount: Option<&Path>) -> Result<MountFile> {
     Ok(file)
 }
 
-/// Whether the mount file at `path` has a `[camera]` section; a file that cannot be read or
-/// parsed counts as having one, so that [`MountFile::read`] says what is wrong with it.
+/// Whether the mount file at `path` gives a camera (a `[camera]` section or an
+/// `opencv_calibration`); a file that cannot be read or parsed counts as giving one, so that
+/// [`MountFile::read`] says what is wrong with it.
 fn has_camera_section(path: &Path) -> bool {
-    std::fs::read_to_string(path)
+    crate::input::read_text(path, crate::input::Input::Mount)
         .ok()
         .and_then(|text| toml::from_str::<toml::Table>(&text).ok())
-        .is_none_or(|table| table.contains_key("camera"))
+        .is_none_or(|table| {
+            table.contains_key("camera") || table.contains_key("opencv_calibration")
+        })
 }
 
 /// Largest difference in focal length or principal point between a mount file's `[camera]`
