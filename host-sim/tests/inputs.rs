@@ -157,6 +157,83 @@ fn a_lossless_video_gives_the_trajectory_of_its_frames_bit_for_bit() {
     assert!(e.contains("takes the container's timestamps"), "{e}");
 }
 
+/// A lossless video of a shared KITTI clip (the first 40 frames of sequence 05, at 10 frames/s)
+/// runs to the very trajectory of the same PNG frames given `--fps 10`: the video's pixels are
+/// the PNGs'. (Against the clip's own times.txt the trajectories differ only by the timing.)
+/// Skipped where ../shared holds no KITTI data.
+#[test]
+fn a_lossless_video_of_a_kitti_clip_runs_as_its_png_frames() {
+    let kitti = Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../shared/data/kitti"
+    ));
+    let seq = kitti.join("sequences/05");
+    if !seq.exists() {
+        eprintln!("no KITTI data at {}: skipped", kitti.display());
+        return;
+    }
+    // The mount file of KITTI's camera 0: mounts/kitti.toml with calib.txt's P0 as [camera].
+    let p0: Vec<f64> = std::fs::read_to_string(seq.join("calib.txt"))
+        .unwrap()
+        .lines()
+        .find_map(|l| l.strip_prefix("P0:"))
+        .unwrap()
+        .split_whitespace()
+        .map(|w| w.parse().unwrap())
+        .collect();
+    let (w, h) = image::image_dimensions(seq.join("image_0/000000.png")).unwrap();
+    let shipped = concat!(env!("CARGO_MANIFEST_DIR"), "/../mounts/kitti.toml");
+    let mount = work().join("kitti-camera.toml");
+    std::fs::write(
+        &mount,
+        format!(
+            "[camera]\nwidth_px = {w}\nheight_px = {h}\nfx_px = {}\nfy_px = {}\ncx_px = {}\n\
+             cy_px = {}\n\n{}",
+            p0[0],
+            p0[5],
+            p0[2],
+            p0[6],
+            std::fs::read_to_string(shipped).unwrap()
+        ),
+    )
+    .unwrap();
+    let video = work().join("kitti05.mkv");
+    let pattern = seq.join("image_0/%06d.png");
+    let frames = work().join("kitti05-frames");
+    std::fs::create_dir_all(&frames).unwrap();
+    for i in 0..FRAMES {
+        let name = format!("{i:06}.png");
+        std::fs::copy(seq.join("image_0").join(&name), frames.join(&name)).unwrap();
+    }
+    ffmpeg(&[
+        Path::new("-framerate"),
+        Path::new("10"),
+        Path::new("-i"),
+        &pattern,
+        Path::new("-frames:v"),
+        Path::new("40"),
+        Path::new("-c:v"),
+        Path::new("ffv1"),
+        &video,
+    ]);
+    let mount = mount.to_str().unwrap();
+    let by_video = run(
+        &video,
+        &work().join("kitti05-video.txt"),
+        &["--mount", mount],
+    );
+    let by_frames = run(
+        &frames,
+        &work().join("kitti05-frames.txt"),
+        &["--mount", mount, "--fps", "10"],
+    );
+    assert_eq!(by_video.0.lines().count(), FRAMES);
+    assert_eq!(
+        by_video, by_frames,
+        "the video's estimates differ from its frames'"
+    );
+}
+
 /// JPEG frames named frame1.jpg..frame40.jpg (natural order: frame2 before frame10), timed by
 /// `--fps`: one pose a frame, the same for the folder and for a glob of it.
 #[test]
