@@ -23,6 +23,7 @@ fuzz_target!(|data: &[u8]| {
         fy_px: 718.856,
         cx_px: 607.1928,
         cy_px: 185.2157,
+        ..Camera::DEFAULT
     };
     if let Ok(file) = MountFile::parse(text, path, Some(&camera)) {
         let again = MountFile::parse(&file.to_text(true, ""), path, None);
