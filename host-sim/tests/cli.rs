@@ -1,30 +1,9 @@
 //! The `roadvo` command line, run as a user runs it.
 
+mod common;
+
+use common::{refused, roadvo, simulate};
 use std::path::Path;
-use std::process::Command;
-
-fn roadvo(args: &[&str]) -> std::process::Output {
-    let out = Command::new(env!("CARGO_BIN_EXE_roadvo"))
-        .args(args)
-        .output()
-        .expect("roadvo runs");
-    assert!(
-        out.status.success(),
-        "roadvo {args:?} failed:\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    out
-}
-
-/// Runs `roadvo` with `args`, expecting a refusal; its error output.
-fn refused(args: &[&str]) -> String {
-    let out = Command::new(env!("CARGO_BIN_EXE_roadvo"))
-        .args(args)
-        .output()
-        .expect("roadvo runs");
-    assert!(!out.status.success(), "roadvo {args:?} succeeded");
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
 
 /// `roadvo run` on `seq` with `extra` arguments, its poses written to `dir/name`: the poses.
 fn run_poses(dir: &Path, seq: &Path, name: &str, extra: &[&str]) -> String {
@@ -46,20 +25,6 @@ fn run_refused_with(dir: &Path, seq: &Path, assignment: &str) -> String {
         "--set",
         assignment,
     ])
-}
-
-/// Renders the first `frames` frames of `scenario` into `out`.
-fn simulate(scenario: &str, out: &Path, frames: usize) {
-    let frames = frames.to_string();
-    roadvo(&[
-        "simulate",
-        "--scenario",
-        scenario,
-        "--out",
-        out.to_str().unwrap(),
-        "--frames",
-        &frames,
-    ]);
 }
 
 #[test]

@@ -112,6 +112,27 @@ fn ffmpeg(args: &[&Path]) {
     );
 }
 
+/// `video`: the frames `image_0/%06d.png` of `seq` (or `%06d.png` of a flat folder), lossless
+/// (FFV1 in Matroska, grey 8-bit as the PNGs are), at 10 frames/s.
+fn lossless_video(seq: &Path, video: &Path) {
+    let kitti = seq.join("image_0");
+    let pattern = if kitti.is_dir() {
+        kitti
+    } else {
+        seq.to_owned()
+    }
+    .join("%06d.png");
+    ffmpeg(&[
+        Path::new("-framerate"),
+        Path::new("10"),
+        Path::new("-i"),
+        &pattern,
+        Path::new("-c:v"),
+        Path::new("ffv1"),
+        video,
+    ]);
+}
+
 /// A lossless video (FFV1 in Matroska, grey 8-bit as the PNGs are) of the drive's frames at its
 /// 10 frames/s gives the very trajectory of the frames: every estimate's bits equal. The
 /// container's timestamps (milliseconds) are the times.txt ones, to the microsecond the
@@ -120,16 +141,7 @@ fn ffmpeg(args: &[&Path]) {
 fn a_lossless_video_gives_the_trajectory_of_its_frames_bit_for_bit() {
     let d = drive();
     let video = work().join("drive.mkv");
-    let pattern = d.seq.join("image_0/%06d.png");
-    ffmpeg(&[
-        Path::new("-framerate"),
-        Path::new("10"),
-        Path::new("-i"),
-        &pattern,
-        Path::new("-c:v"),
-        Path::new("ffv1"),
-        &video,
-    ]);
+    lossless_video(&d.seq, &video);
     let mount = d.mount.to_str().unwrap();
     let (poses, trace) = run(&video, &work().join("video.txt"), &["--mount", mount]);
     assert_eq!(poses.lines().count(), FRAMES);
@@ -198,24 +210,13 @@ fn a_lossless_video_of_a_kitti_clip_runs_as_its_png_frames() {
     )
     .unwrap();
     let video = work().join("kitti05.mkv");
-    let pattern = seq.join("image_0/%06d.png");
     let frames = work().join("kitti05-frames");
     std::fs::create_dir_all(&frames).unwrap();
     for i in 0..FRAMES {
         let name = format!("{i:06}.png");
         std::fs::copy(seq.join("image_0").join(&name), frames.join(&name)).unwrap();
     }
-    ffmpeg(&[
-        Path::new("-framerate"),
-        Path::new("10"),
-        Path::new("-i"),
-        &pattern,
-        Path::new("-frames:v"),
-        Path::new("40"),
-        Path::new("-c:v"),
-        Path::new("ffv1"),
-        &video,
-    ]);
+    lossless_video(&frames, &video);
     let mount = mount.to_str().unwrap();
     let by_video = run(
         &video,

@@ -1,23 +1,12 @@
 //! `roadvo run`'s trajectory and quality formats and `roadvo eval` on them, run as a user runs
 //! them: KITTI and TUM files of one run score alike, TUM files are paired by timestamp.
 
+mod common;
+
+use common::{refused, roadvo, simulate};
 use roadvo_sim::kitti::{read_poses, read_times};
 use roadvo_sim::pose_file::{PoseFormat, write_trajectory};
 use std::path::Path;
-use std::process::Command;
-
-fn roadvo(args: &[&str]) -> std::process::Output {
-    let out = Command::new(env!("CARGO_BIN_EXE_roadvo"))
-        .args(args)
-        .output()
-        .expect("roadvo runs");
-    assert!(
-        out.status.success(),
-        "roadvo {args:?} failed:\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    out
-}
 
 fn eval_json(gt: &Path, est: &Path, extra: &[&str]) -> serde_json::Value {
     let mut args = vec![
@@ -41,16 +30,7 @@ fn figure(v: &serde_json::Value, path: &str) -> f64 {
 fn kitti_and_tum_files_of_one_run_score_alike() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let out = d.to_str().unwrap();
-    roadvo(&[
-        "simulate",
-        "--scenario",
-        "s-course",
-        "--out",
-        out,
-        "--frames",
-        "60",
-    ]);
+    simulate("s-course", d, 60);
     let seq = d.join("sequences/00");
     let gt = d.join("poses/00.txt");
     let (kitti, tum) = (d.join("est.txt"), d.join("est.tum"));
@@ -187,18 +167,13 @@ fn tum_poses_pair_by_the_nearest_timestamp_within_the_limit() {
     assert_eq!(v["association"]["max_diff_s"], 0.01);
     assert!(figure(&v, "/ape/translation_m/max") < 1e-8, "{v}");
     // 4 ms is beyond a 3 ms limit: nothing pairs, and the refusal says so.
-    let out = Command::new(env!("CARGO_BIN_EXE_roadvo"))
-        .args([
-            "eval",
-            gt_path.to_str().unwrap(),
-            est_path.to_str().unwrap(),
-            "--t-max-diff",
-            "0.003",
-        ])
-        .output()
-        .unwrap();
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = refused(&[
+        "eval",
+        gt_path.to_str().unwrap(),
+        est_path.to_str().unwrap(),
+        "--t-max-diff",
+        "0.003",
+    ]);
     assert!(
         err.contains("0 poses have timestamps within 0.003 s"),
         "{err}"
