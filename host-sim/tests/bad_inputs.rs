@@ -191,12 +191,17 @@ fn cases(dir: &Path) -> Vec<Case> {
         write(&copy.join(file), &edit(text));
         copy
     };
-    // P0's second number, the skew, made 5.
-    let skewed = edited("skewed", "calib.txt", &|t| {
-        let mut words: Vec<&str> = t.split_whitespace().collect();
-        words[2] = "5";
-        words.join(" ") + "\n"
-    });
+    // A copy whose P0 has its number `k` (1-based) made `value`.
+    let p0_with = |name: &str, k: usize, value: &'static str| {
+        edited(name, "calib.txt", &move |t: String| {
+            let mut words: Vec<&str> = t.split_whitespace().collect();
+            words[k] = value;
+            words.join(" ") + "\n"
+        })
+    };
+    let skewed = p0_with("skewed", 2, "5");
+    let third_row = p0_with("third-row", 11, "2");
+    let narrow = p0_with("narrow", 1, "5");
     let two_p0 = edited("two-p0", "calib.txt", &|t| {
         t + "P0: 1 0 0 0 0 1 0 0 0 0 1 0\n"
     });
@@ -218,6 +223,25 @@ fn cases(dir: &Path) -> Vec<Case> {
             name: "calib.txt with skew",
             args: args(&["run", &s(&skewed), "--out", &s(&est)]),
             says: vec!["skewed/calib.txt line 1".into(), "skewed camera".into()],
+            unchanged: vec![],
+        },
+        Case {
+            name: "calib.txt whose third row is not 0 0 1 0",
+            args: args(&["run", &s(&third_row), "--out", &s(&est)]),
+            says: vec!["third-row/calib.txt line 1".into(), "0 0 1 0".into()],
+            unchanged: vec![],
+        },
+        Case {
+            name: "calib.txt with a focal length of 5 px for a 640 px frame",
+            args: args(&[
+                "run",
+                &s(&narrow),
+                "--mount",
+                concat!(env!("CARGO_MANIFEST_DIR"), "/../mounts/kitti.toml"),
+                "--out",
+                &s(&est),
+            ]),
+            says: vec!["narrow/calib.txt".into(), "field of view".into()],
             unchanged: vec![],
         },
         Case {
