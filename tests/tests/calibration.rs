@@ -21,12 +21,14 @@ fn calibration_removes_the_drift_of_a_yaw_error() {
     let overlay = dir.path().join("yaw-error.toml");
     std::fs::write(&overlay, "[calibration_error]\nyaw_deg = 1.0\n").unwrap();
     let sc = Scenario::load("s-course", &[overlay.to_str().unwrap().to_string()]).unwrap();
-    simulate(&sc, dir.path(), 1, Some(120), &()).unwrap();
-    let seq = Sequence::open(&sequence_dir(dir.path())).unwrap();
+    // A drive goes to a folder of its own (simulate refuses one holding other files).
+    let drive = dir.path().join("drive");
+    simulate(&sc, &drive, 1, Some(120), &()).unwrap();
+    let seq = Sequence::open(&sequence_dir(&drive)).unwrap();
     let told = mount_for(&seq, None).unwrap();
     let truth = sc.mount_file(false);
     assert!((told.mount_value("yaw_deg") - truth.mount_value("yaw_deg") - 1.0).abs() < 1e-4);
-    let gt = read_poses(&poses_path(dir.path())).unwrap();
+    let gt = read_poses(&poses_path(&drive)).unwrap();
     let cal = calibrate(&seq, &gt, 0..120, &told, None, Metric::Short, 60, |_, _| {}).unwrap();
     let yaw_error = cal.mount.mount_value("yaw_deg") - truth.mount_value("yaw_deg");
     assert!(
