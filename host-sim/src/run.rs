@@ -136,12 +136,19 @@ pub struct Ran {
     pub stopped: Option<Skipped>,
 }
 
+impl Skipped {
+    /// Why the frame was left out, as an error naming the frame.
+    pub fn into_error(self) -> anyhow::Error {
+        self.cause.context(format!("frame {:06}", self.frame))
+    }
+}
+
 impl Ran {
     /// The timing of a run that went to the end; an error naming the frame otherwise.
     pub fn complete(self) -> Result<Timing> {
         match self.stopped {
             None => Ok(self.timing),
-            Some(s) => Err(s.cause.context(format!("frame {:06}", s.frame))),
+            Some(s) => Err(s.into_error()),
         }
     }
 }
@@ -482,6 +489,14 @@ pub struct RunOutput {
 }
 
 impl RunOutput {
+    /// The output of a run that went to the end; an error naming the frame otherwise.
+    pub fn complete(mut self) -> Result<Self> {
+        match self.ran.stopped.take() {
+            None => Ok(self),
+            Some(s) => Err(s.into_error()),
+        }
+    }
+
     /// Frames that fell back to the previous motion.
     pub fn fallbacks(&self) -> usize {
         self.estimates.iter().filter(|e| e.quality.fallback).count()
@@ -662,10 +677,9 @@ pub fn run_sequence(
         BadFrames::Stop,
         || {},
     )?;
-    if let Some(s) = &output.ran.stopped {
-        bail!("{}: frame {:06}: {:#}", seq.dir.display(), s.frame, s.cause);
-    }
-    Ok(output)
+    output
+        .complete()
+        .with_context(|| seq.dir.display().to_string())
 }
 
 #[cfg(test)]

@@ -256,21 +256,13 @@ fn a_folder_or_glob_of_jpeg_frames_runs_at_a_given_rate() {
     let (from_glob, _) = run(&glob, &work().join("jpeg-glob.txt"), &args);
     assert_eq!(from_glob, poses);
     // Out of order, the frames would drive another trajectory: the order is natural.
-    let last: Vec<f64> = poses
-        .lines()
-        .last()
-        .unwrap()
-        .split_whitespace()
-        .map(|w| w.parse().unwrap())
-        .collect();
-    let truth: Vec<f64> = d
-        .poses
-        .lines()
-        .last()
-        .unwrap()
-        .split_whitespace()
-        .map(|w| w.parse().unwrap())
-        .collect();
+    let last_pose = |text: &str| -> Vec<f64> {
+        let line = text.lines().last().unwrap();
+        line.split_whitespace()
+            .map(|w| w.parse().unwrap())
+            .collect()
+    };
+    let (last, truth) = (last_pose(&poses), last_pose(&d.poses));
     let gap = ((last[3] - truth[3]).powi(2) + (last[11] - truth[11]).powi(2)).sqrt();
     assert!(gap < 0.05, "JPEG and PNG runs end {gap} m apart");
     // A folder of frames needs their timestamps.

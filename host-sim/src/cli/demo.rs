@@ -43,11 +43,9 @@ impl DemoArgs {
             let config = config_for(&seq, &mount, Some(method))?;
             let output = run(&seq, config, &RunFiles::default(), BadFrames::Stop, || {
                 progress.inc(1)
-            })?;
+            })?
+            .complete()?;
             progress.finish_and_clear();
-            if let Some(s) = output.ran.stopped {
-                return Err(s.cause.context(format!("frame {:06}", s.frame)));
-            }
             println!(
                 "{:>10}: {} frames, {} fallbacks, odometry {:.0} frames/s",
                 method.name(),
