@@ -43,11 +43,11 @@ impl Grid {
 /// Whether a ring's mask (bit k: pixel k of the ring) holds [`ARC`] in a row, round the ring.
 fn has_arc(mask: u16) -> bool {
     let m = u32::from(mask) | (u32::from(mask) << 16);
-    let mut run = m;
-    for _ in 1..ARC {
-        run &= run >> 1;
-    }
-    run != 0
+    // Runs of 2, 4 and 8 in a row, then the ninth.
+    let two = m & (m >> 1);
+    let four = two & (two >> 2);
+    let eight = four & (four >> 4);
+    eight & (m >> (ARC - 1)) != 0
 }
 
 /// Pixels between the places tested, each axis: a corner fires the test at several pixels
@@ -55,33 +55,29 @@ fn has_arc(mask: u16) -> bool {
 /// (and where exactly it sits does not matter: its patch is what is found again).
 const STRIDE: usize = 2;
 
-/// The ring of sixteen at radius 3 round column `u` of the middle one of seven rows, in order
-/// round it from straight up, clockwise; None where the rows do not reach 3 pixels either side.
-fn ring(rows: &[&[u8]; 7], u: usize) -> Option<[i16; 16]> {
-    let mut win = [[0u8; 7]; 7];
-    for (w, r) in win.iter_mut().zip(rows) {
-        *w = r.get(u.checked_sub(3)?..u + 4)?.try_into().ok()?;
-    }
-    let p = |r: usize, c: usize| i16::from(win[r][c]);
-    Some([
-        p(0, 3),
-        p(0, 4),
-        p(1, 5),
-        p(2, 6),
-        p(3, 6),
-        p(4, 6),
-        p(5, 5),
-        p(6, 4),
-        p(6, 3),
-        p(6, 2),
-        p(5, 1),
-        p(4, 0),
-        p(3, 0),
-        p(2, 0),
-        p(1, 1),
-        p(0, 2),
-    ])
-}
+/// The ring of sixteen at radius 3 in a 7x7 window, in order round it from straight up,
+/// clockwise: (row, column).
+const RING: [(usize, usize); 16] = [
+    (0, 3),
+    (0, 4),
+    (1, 5),
+    (2, 6),
+    (3, 6),
+    (4, 6),
+    (5, 5),
+    (6, 4),
+    (6, 3),
+    (6, 2),
+    (5, 1),
+    (4, 0),
+    (3, 0),
+    (2, 0),
+    (1, 1),
+    (0, 2),
+];
+
+/// Columns the pre-test looks at together (a loop the compiler vectorises).
+const CHUNK: usize = 64;
 
 /// Finds the corners of `frame` at least `border` pixels inside it with FAST threshold
 /// `threshold` (grey levels), the `grid.per_cell` strongest of each cell kept in `out` (slot
@@ -103,66 +99,90 @@ pub fn detect<F: Frame + ?Sized>(
     // Never zero (inner_w, inner_h > 0); the max says so to the compiler, which keeps no panic.
     let cell_w = inner_w.div_ceil(grid.columns.max(1)).max(1);
     let cell_h = inner_h.div_ceil(grid.rows.max(1)).max(1);
-    let t = i16::from(threshold);
     let (first, end) = (usize::from(border), usize::from(w - border));
     for v in (border..h - border).step_by(STRIDE) {
         let rows: [&[u8]; 7] = core::array::from_fn(|k| frame.row(v - 3 + k as u16));
         let cell_row = (v - border) / cell_h;
-        fn span(r: &[u8], first: usize, end: usize) -> &[u8] {
-            r.get(first..end).unwrap_or_default()
-        }
-        let (top, middle, bottom) = (
-            span(rows[0], first, end),
-            span(rows[3], first, end),
-            span(rows[6], first, end),
+        let span = |r, shift| span(r, first, end, shift);
+        // The ring's compass pixels of every column: up, right, down, left.
+        let (up, right, down, left) = (
+            span(rows[0], 0),
+            span(rows[3], 3),
+            span(rows[6], 0),
+            span(rows[3], -3),
         );
-        let tested = top.iter().zip(middle).zip(bottom).step_by(STRIDE);
-        for (k, ((&up, &c), &down)) in tested.enumerate() {
-            let (up, c, down) = (i16::from(up), i16::from(c), i16::from(down));
-            // Nine in a row take in the top or the bottom of the ring, and two of its four
-            // compass pixels (a right angle's corner takes in exactly two).
-            if (up - c).abs() <= t && (down - c).abs() <= t {
-                continue;
+        let centre = span(rows[3], 0);
+        let compass = up.chunks(CHUNK).zip(right.chunks(CHUNK));
+        let compass = compass.zip(down.chunks(CHUNK).zip(left.chunks(CHUNK)));
+        for (chunk, (middle, ((up, right), (down, left)))) in
+            centre.chunks(CHUNK).zip(compass).enumerate()
+        {
+            // Nine in a row take in two neighbouring compass pixels of the four (up and right,
+            // right and down, ...), so one of them the top or the bottom. In u8: a bound beyond
+            // 0..255 saturates, and nothing lies beyond it.
+            let mut passes = [false; CHUNK];
+            let pixels = middle.iter().zip(up).zip(right).zip(down).zip(left);
+            for (pass, ((((&c, &up), &right), &down), &left)) in passes.iter_mut().zip(pixels) {
+                let (hi, lo) = (c.saturating_add(threshold), c.saturating_sub(threshold));
+                let neighbours = |a: bool, b: bool, c: bool, d: bool| (a | c) & (b | d);
+                let bright = neighbours(up > hi, right > hi, down > hi, left > hi);
+                let dark = neighbours(up < lo, right < lo, down < lo, left < lo);
+                *pass = bright | dark;
             }
-            let u = first + k * STRIDE;
-            let (hi, lo) = (c + t, c - t);
-            let side = |x: usize| rows[3].get(x).map_or(c, |&p| i16::from(p));
-            let (left, right) = (side(u - 3), side(u + 3));
-            let compass = [up, right, down, left];
-            let bright = compass.iter().filter(|&&p| p > hi).count();
-            let dark = compass.iter().filter(|&&p| p < lo).count();
-            if bright < 2 && dark < 2 {
-                continue;
-            }
-            let Some(ring) = ring(&rows, u) else {
-                continue;
-            };
-            let (mut bright_mask, mut dark_mask) = (0u16, 0u16);
-            for (k, &p) in ring.iter().enumerate() {
-                bright_mask |= u16::from(p > hi) << k;
-                dark_mask |= u16::from(p < lo) << k;
-            }
-            let score: i32 = if has_arc(bright_mask) {
-                ring.iter().map(|&p| i32::from((p - hi).max(0))).sum()
-            } else if has_arc(dark_mask) {
-                ring.iter().map(|&p| i32::from((lo - p).max(0))).sum()
-            } else {
-                continue;
-            };
-            let u = u as u16;
-            let corner = ImageCorner {
-                u,
-                v,
-                score: u16::try_from(score).unwrap_or(u16::MAX),
-            };
-            let cell = usize::from(cell_row) * usize::from(grid.columns)
-                + usize::from((u - border) / cell_w);
-            let first = cell * usize::from(grid.per_cell);
-            if let Some(slots) = out.get_mut(first..first + usize::from(grid.per_cell)) {
-                keep(slots, corner);
+            // Every other column (the chunks start on tested columns: CHUNK is even).
+            for k in (0..CHUNK).step_by(STRIDE).filter(|&k| passes[k]) {
+                let u = first + chunk * CHUNK + k;
+                let Some(corner) = segment(&rows, u, v, threshold) else {
+                    continue;
+                };
+                let cell = usize::from(cell_row) * usize::from(grid.columns)
+                    + usize::from((corner.u - border) / cell_w);
+                let first = cell * usize::from(grid.per_cell);
+                if let Some(slots) = out.get_mut(first..first + usize::from(grid.per_cell)) {
+                    keep(slots, corner);
+                }
             }
         }
     }
+}
+
+/// Columns `first..end` of `row`, each shifted by `shift`; empty where they leave the row.
+fn span(row: &[u8], first: usize, end: usize, shift: isize) -> &[u8] {
+    let at = |x: usize| x.checked_add_signed(shift).unwrap_or(0);
+    row.get(at(first)..at(end)).unwrap_or_default()
+}
+
+/// The segment test's last stage at column `u` of row `v` (the middle one of `rows`): nine of
+/// the ring in a row all brighter or all darker than the centre by `t`; the corner with its
+/// score, or `None`.
+fn segment(rows: &[&[u8]; 7], u: usize, v: u16, t: u8) -> Option<ImageCorner> {
+    let mut win = [[0u8; 7]; 7];
+    for (w, r) in win.iter_mut().zip(rows) {
+        *w = r.get(u.checked_sub(3)?..u + 4)?.try_into().ok()?;
+    }
+    let c = i16::from(win[3][3]);
+    let (hi, lo) = (c + i16::from(t), c - i16::from(t));
+    let mut ring = [0i16; 16];
+    for (p, &(r, c)) in ring.iter_mut().zip(&RING) {
+        *p = i16::from(win[r][c]);
+    }
+    let (mut bright_mask, mut dark_mask) = (0u16, 0u16);
+    for (k, &p) in ring.iter().enumerate() {
+        bright_mask |= u16::from(p > hi) << k;
+        dark_mask |= u16::from(p < lo) << k;
+    }
+    let score: i32 = if has_arc(bright_mask) {
+        ring.iter().map(|&p| i32::from((p - hi).max(0))).sum()
+    } else if has_arc(dark_mask) {
+        ring.iter().map(|&p| i32::from((lo - p).max(0))).sum()
+    } else {
+        return None;
+    };
+    Some(ImageCorner {
+        u: u16::try_from(u).ok()?,
+        v,
+        score: u16::try_from(score).unwrap_or(u16::MAX),
+    })
 }
 
 /// Keeps `c` among a cell's strongest `slots`, no two closer than [`MIN_SEPARATION_PX`].
