@@ -120,19 +120,19 @@ pub fn detect<F: Frame + ?Sized>(
             // Nine in a row take in two neighbouring compass pixels of the four (up and right,
             // right and down, ...), so one of them the top or the bottom. In u8: a bound beyond
             // 0..255 saturates, and nothing lies beyond it.
-            let mut passes = [false; CHUNK];
+            let mut passes = [0u8; CHUNK];
             let pixels = middle.iter().zip(up).zip(right).zip(down).zip(left);
             for (pass, ((((&c, &up), &right), &down), &left)) in passes.iter_mut().zip(pixels) {
                 let (hi, lo) = (c.saturating_add(threshold), c.saturating_sub(threshold));
                 let neighbours = |a: bool, b: bool, c: bool, d: bool| (a | c) & (b | d);
                 let bright = neighbours(up > hi, right > hi, down > hi, left > hi);
                 let dark = neighbours(up < lo, right < lo, down < lo, left < lo);
-                *pass = bright | dark;
+                *pass = (u8::from(bright) * BRIGHT) | (u8::from(dark) * DARK);
             }
             // Every other column (the chunks start on tested columns: CHUNK is even).
-            for k in (0..CHUNK).step_by(STRIDE).filter(|&k| passes[k]) {
+            for k in (0..CHUNK).step_by(STRIDE).filter(|&k| passes[k] != 0) {
                 let u = first + chunk * CHUNK + k;
-                let Some(corner) = segment(&rows, u, v, threshold) else {
+                let Some(corner) = segment(&rows, u, v, threshold, passes[k]) else {
                     continue;
                 };
                 let cell = usize::from(cell_row) * usize::from(grid.columns)
@@ -152,11 +152,15 @@ fn span(row: &[u8], first: usize, end: usize, shift: isize) -> &[u8] {
     row.get(at(first)..at(end)).unwrap_or_default()
 }
 
+/// Which arcs the pre-test leaves possible: brighter than the centre, darker.
+const BRIGHT: u8 = 1;
+const DARK: u8 = 2;
+
 /// The segment test's last stage at column `u` of row `v` (the middle one of `rows`): nine of
-/// the ring in a row all brighter or all darker than the centre by `t`; the corner with its
-/// score, or `None`.
-fn segment(rows: &[&[u8]; 7], u: usize, v: u16, t: u8) -> Option<ImageCorner> {
-    let mut win = [[0u8; 7]; 7];
+/// the ring in a row all brighter or all darker than the centre by `t`, of the arcs `sides`
+/// ([`BRIGHT`], [`DARK`]) leaves possible; the corner with its score, or `None`.
+fn segment(rows: &[&[u8]; 7], u: usize, v: u16, t: u8, sides: u8) -> Option<ImageCorner> {
+    let mut win: [&[u8; 7]; 7] = [&[0; 7]; 7];
     for (w, r) in win.iter_mut().zip(rows) {
         *w = r.get(u.checked_sub(3)?..u + 4)?.try_into().ok()?;
     }
@@ -166,14 +170,16 @@ fn segment(rows: &[&[u8]; 7], u: usize, v: u16, t: u8) -> Option<ImageCorner> {
     for (p, &(r, c)) in ring.iter_mut().zip(&RING) {
         *p = i16::from(win[r][c]);
     }
-    let (mut bright_mask, mut dark_mask) = (0u16, 0u16);
-    for (k, &p) in ring.iter().enumerate() {
-        bright_mask |= u16::from(p > hi) << k;
-        dark_mask |= u16::from(p < lo) << k;
-    }
-    let score: i32 = if has_arc(bright_mask) {
+    let arc = |beyond: &dyn Fn(i16) -> bool| {
+        let mask = ring
+            .iter()
+            .enumerate()
+            .fold(0u16, |m, (k, &p)| m | u16::from(beyond(p)) << k);
+        has_arc(mask)
+    };
+    let score: i32 = if sides & BRIGHT != 0 && arc(&|p| p > hi) {
         ring.iter().map(|&p| i32::from((p - hi).max(0))).sum()
-    } else if has_arc(dark_mask) {
+    } else if sides & DARK != 0 && arc(&|p| p < lo) {
         ring.iter().map(|&p| i32::from((lo - p).max(0))).sum()
     } else {
         return None;
@@ -190,24 +196,34 @@ fn keep(slots: &mut [Option<ImageCorner>], c: ImageCorner) {
     let near = |o: &ImageCorner| {
         o.u.abs_diff(c.u) < MIN_SEPARATION_PX && o.v.abs_diff(c.v) < MIN_SEPARATION_PX
     };
-    if slots
-        .iter()
-        .flatten()
-        .any(|o| near(o) && o.score >= c.score)
-    {
-        return;
-    }
-    // Weaker neighbours give way.
-    for slot in slots.iter_mut() {
-        if slot.is_some_and(|o| near(&o)) {
-            *slot = None;
+    // One pass: a stronger neighbour keeps it out; otherwise the first of the weakest slots
+    // (an empty one before any other) and whether weaker neighbours must give way.
+    let (mut weakest, mut weakest_key, mut neighbours) = (None, u32::MAX, false);
+    for (k, slot) in slots.iter().enumerate() {
+        let key = match slot {
+            Some(o) if near(o) && o.score >= c.score => return,
+            Some(o) => {
+                neighbours |= near(o);
+                u32::from(o.score) + 1
+            }
+            None => 0,
+        };
+        if key < weakest_key {
+            (weakest, weakest_key) = (Some(k), key);
         }
     }
-    let weakest = slots
-        .iter_mut()
-        .min_by_key(|s| s.map_or(0, |o| u32::from(o.score) + 1));
-    if let Some(slot) = weakest
-        && slot.is_none_or(|o| o.score < c.score)
+    if neighbours {
+        // Weaker neighbours give way; the first slot left empty takes it.
+        for slot in slots.iter_mut() {
+            if slot.is_some_and(|o| near(&o)) {
+                *slot = None;
+            }
+        }
+        weakest = slots.iter().position(Option::is_none);
+        weakest_key = 0;
+    }
+    if let Some(slot) = weakest.and_then(|k| slots.get_mut(k))
+        && weakest_key <= u32::from(c.score)
     {
         *slot = Some(c);
     }
