@@ -270,8 +270,8 @@ fn strip<F: Frame + ?Sized, const K: usize>(
         // and their order does not matter to a sum.
         let yr = yg - 1;
         let [p0, p1, p2] = &scratch.prod;
-        for (k, col) in scratch.cols.iter_mut().enumerate() {
-            for (c, ((a, b), d)) in col.iter_mut().zip(p0[k].iter().zip(&p1[k]).zip(&p2[k])) {
+        for (col, ((p0, p1), p2)) in scratch.cols.iter_mut().zip(p0.iter().zip(p1).zip(p2)) {
+            for (c, ((a, b), d)) in col.iter_mut().zip(p0.iter().zip(p1).zip(p2)) {
                 *c = a + b + d;
             }
         }

@@ -130,9 +130,10 @@ pub fn detect<F: Frame + ?Sized>(
                 *pass = (u8::from(bright) * BRIGHT) | (u8::from(dark) * DARK);
             }
             // Every other column (the chunks start on tested columns: CHUNK is even).
-            for k in (0..CHUNK).step_by(STRIDE).filter(|&k| passes[k] != 0) {
+            let tested = passes.iter().enumerate().step_by(STRIDE);
+            for (k, &sides) in tested.filter(|(_, sides)| **sides != 0) {
                 let u = first + chunk * CHUNK + k;
-                let Some(corner) = segment(&rows, u, v, threshold, passes[k]) else {
+                let Some(corner) = segment(&rows, u, v, threshold, sides) else {
                     continue;
                 };
                 let cell = usize::from(cell_row) * usize::from(grid.columns)
@@ -168,7 +169,7 @@ fn segment(rows: &[&[u8]; 7], u: usize, v: u16, t: u8, sides: u8) -> Option<Imag
     let (hi, lo) = (c + i16::from(t), c - i16::from(t));
     let mut ring = [0i16; 16];
     for (p, &(r, c)) in ring.iter_mut().zip(&RING) {
-        *p = i16::from(win[r][c]);
+        *p = i16::from(*win.get(r)?.get(c)?);
     }
     let arc = |beyond: &dyn Fn(i16) -> bool| {
         let mask = ring

@@ -207,8 +207,10 @@ fn costs<F: Frame + ?Sized>(frame: &F, patch: &Patch, u: u16, v: u16) -> [i64; 9
         // The window's patch at this offset, row by row like `patch`: one run of AREA pixels,
         // which the compiler sums several at a time.
         let mut shifted = [0u8; AREA];
-        for (out, w_row) in shifted.chunks_exact_mut(SIDE).zip(&window[oy..oy + SIDE]) {
-            out.copy_from_slice(&w_row[ox..ox + SIDE]);
+        for (out, w_row) in shifted.chunks_exact_mut(SIDE).zip(window.iter().skip(oy)) {
+            for (o, &w) in out.iter_mut().zip(w_row.iter().skip(ox)) {
+                *o = w;
+            }
         }
         let (mut sum_d, mut sum_sq) = (0i32, 0i32);
         for (&a, &b) in patch.iter().zip(&shifted) {
