@@ -125,11 +125,10 @@ pub struct HarrisScratch {
     /// The three image rows a gradient row reads, strip columns plus three each side; zero
     /// beyond a short row's end.
     pixels: [[u8; STRIP + 6]; 3],
-    /// Gradient products (gx gx, gy gy, gx gy, each a row of its own) of three rows, strip
-    /// columns plus two each side.
-    prod: [[[i32; STRIP + 4]; 3]; 3],
-    /// The products summed down the three rows, per column (gx gx, gy gy, gx gy).
-    cols: [[i32; STRIP + 4]; 3],
+    /// Gradient products (gx gx, gy gy, gx gy) of three rows, strip columns plus two each side.
+    prod: [[[i32; 3]; STRIP + 4]; 3],
+    /// The products summed down the three rows, per column.
+    cols: [[i32; 3]; STRIP + 4],
     /// Responses of three rows, strip columns plus one each side.
     resp: [[i32; STRIP + 2]; 3],
 }
@@ -139,8 +138,8 @@ impl HarrisScratch {
     pub const fn new() -> Self {
         Self {
             pixels: [[0; STRIP + 6]; 3],
-            prod: [[[0; STRIP + 4]; 3]; 3],
-            cols: [[0; STRIP + 4]; 3],
+            prod: [[[0; 3]; STRIP + 4]; 3],
+            cols: [[0; 3]; STRIP + 4],
             resp: [[0; STRIP + 2]; 3],
         }
     }
@@ -244,24 +243,16 @@ fn strip<F: Frame + ?Sized, const K: usize>(
             tail.fill(0);
         }
         let [above, here, below] = &scratch.pixels;
-        let [xx, yy, xy] = &mut scratch.prod[usize::from(yg) % 3];
-        // Column k of the products reads columns k..k+2 of the three rows (shifted slices
-        // zipped, which the compiler vectorises).
-        let n = ncols + 4;
-        let horizontal = shifted(above, 0, n)
-            .iter()
-            .zip(shifted(above, 2, n))
-            .zip(shifted(here, 0, n).iter().zip(shifted(here, 2, n)));
-        let horizontal = horizontal.zip(shifted(below, 0, n).iter().zip(shifted(below, 2, n)));
-        let vertical = shifted(above, 1, n).iter().zip(shifted(below, 1, n));
-        let products = xx.iter_mut().zip(yy.iter_mut()).zip(xy.iter_mut());
-        for (((pxx, pyy), pxy), ((((&a0, &a2), (&h0, &h2)), (&b0, &b2)), (&a1, &b1))) in
-            products.zip(horizontal.zip(vertical))
-        {
+        let slot = &mut scratch.prod[usize::from(yg) % 3];
+        let stencil = above.windows(3).zip(here.windows(3)).zip(below.windows(3));
+        for (p, ((a, h), b)) in slot.iter_mut().zip(stencil).take(ncols + 4) {
+            let (&[a0, a1, a2], &[h0, _, h2], &[b0, b1, b2]) = (a, h, b) else {
+                continue;
+            };
             let [a0, a1, a2, h0, h2, b0, b1, b2] = [a0, a1, a2, h0, h2, b0, b1, b2].map(i32::from);
             let gx = a2 + 2 * h2 + b2 - a0 - 2 * h0 - b0;
             let gy = b0 + 2 * b1 + b2 - a0 - 2 * a1 - a2;
-            (*pxx, *pyy, *pxy) = (gx * gx, gy * gy, gx * gy);
+            *p = [gx * gx, gy * gy, gx * gy];
         }
         if yg < top {
             continue;
@@ -270,19 +261,17 @@ fn strip<F: Frame + ?Sized, const K: usize>(
         // and their order does not matter to a sum.
         let yr = yg - 1;
         let [p0, p1, p2] = &scratch.prod;
-        for (col, ((p0, p1), p2)) in scratch.cols.iter_mut().zip(p0.iter().zip(p1).zip(p2)) {
-            for (c, ((a, b), d)) in col.iter_mut().zip(p0.iter().zip(p1).zip(p2)) {
-                *c = a + b + d;
-            }
+        for (c, ((a, b), d)) in scratch.cols.iter_mut().zip(p0.iter().zip(p1).zip(p2)) {
+            *c = [a[0] + b[0] + d[0], a[1] + b[1] + d[1], a[2] + b[2] + d[2]];
         }
         let resp = &mut scratch.resp[usize::from(yr) % 3];
-        // The 3x3 sums: column k of the response sums columns k..k+2.
-        let [cxx, cyy, cxy] = &scratch.cols;
-        let m = ncols + 2;
-        for (r, ((sxx, syy), sxy)) in resp
-            .iter_mut()
-            .zip(sum3(cxx, m).zip(sum3(cyy, m)).zip(sum3(cxy, m)))
-        {
+        for (r, w) in resp.iter_mut().zip(scratch.cols.windows(3)).take(ncols + 2) {
+            let &[c0, c1, c2] = w else {
+                continue;
+            };
+            let sxx = c0[0] + c1[0] + c2[0];
+            let syy = c0[1] + c1[1] + c2[1];
+            let sxy = c0[2] + c1[2] + c2[2];
             // Sums reach 9 * 1020^2, the trace twice that: i32. Products widen to i64 (one
             // 32x32->64 multiply each on a Cortex-M).
             let trace = i64::from(sxx + syy);
@@ -335,18 +324,6 @@ fn strip<F: Frame + ?Sized, const K: usize>(
             }
         }
     }
-}
-
-/// `n` entries of `row` from `shift` on; fewer where it ends.
-fn shifted<T>(row: &[T], shift: usize, n: usize) -> &[T] {
-    let end = (shift + n).min(row.len());
-    row.get(shift..end).unwrap_or_default()
-}
-
-/// The sums of three neighbouring entries of `c`: entry k sums `k..k + 3`, `n` of them.
-fn sum3(c: &[i32], n: usize) -> impl Iterator<Item = i32> + '_ {
-    let [c0, c1, c2] = [0, 1, 2].map(|shift| shifted(c, shift, n));
-    c0.iter().zip(c1).zip(c2).map(|((a, b), d)| a + b + d)
 }
 
 enum Side {

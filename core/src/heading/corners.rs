@@ -76,9 +76,6 @@ const RING: [(usize, usize); 16] = [
     (0, 2),
 ];
 
-/// Columns the pre-test looks at together (a loop the compiler vectorises).
-const CHUNK: usize = 64;
-
 /// Finds the corners of `frame` at least `border` pixels inside it with FAST threshold
 /// `threshold` (grey levels), the `grid.per_cell` strongest of each cell kept in `out` (slot
 /// `cell * per_cell + k`; `None` where a cell has fewer). `out` must hold `grid.capacity()`.
@@ -103,54 +100,37 @@ pub fn detect<F: Frame + ?Sized>(
     for v in (border..h - border).step_by(STRIDE) {
         let rows: [&[u8]; 7] = core::array::from_fn(|k| frame.row(v - 3 + k as u16));
         let cell_row = (v - border) / cell_h;
-        let span = |r, shift| span(r, first, end, shift);
-        // The ring's compass pixels of every column: up, right, down, left.
-        let (up, right, down, left) = (
-            span(rows[0], 0),
-            span(rows[3], 3),
-            span(rows[6], 0),
-            span(rows[3], -3),
-        );
-        let centre = span(rows[3], 0);
-        let compass = up.chunks(CHUNK).zip(right.chunks(CHUNK));
-        let compass = compass.zip(down.chunks(CHUNK).zip(left.chunks(CHUNK)));
-        for (chunk, (middle, ((up, right), (down, left)))) in
-            centre.chunks(CHUNK).zip(compass).enumerate()
-        {
+        let [top, middle, bottom] = [0, 3, 6].map(|r| rows[r].get(first..end).unwrap_or_default());
+        let tested = top.iter().zip(middle).zip(bottom).step_by(STRIDE);
+        for (k, ((&up, &c), &down)) in tested.enumerate() {
             // Nine in a row take in two neighbouring compass pixels of the four (up and right,
-            // right and down, ...), so one of them the top or the bottom. In u8: a bound beyond
+            // right and down, ...), so the top or the bottom first. In u8: a bound beyond
             // 0..255 saturates, and nothing lies beyond it.
-            let mut passes = [0u8; CHUNK];
-            let pixels = middle.iter().zip(up).zip(right).zip(down).zip(left);
-            for (pass, ((((&c, &up), &right), &down), &left)) in passes.iter_mut().zip(pixels) {
-                let (hi, lo) = (c.saturating_add(threshold), c.saturating_sub(threshold));
-                let neighbours = |a: bool, b: bool, c: bool, d: bool| (a | c) & (b | d);
-                let bright = neighbours(up > hi, right > hi, down > hi, left > hi);
-                let dark = neighbours(up < lo, right < lo, down < lo, left < lo);
-                *pass = (u8::from(bright) * BRIGHT) | (u8::from(dark) * DARK);
+            if up.abs_diff(c) <= threshold && down.abs_diff(c) <= threshold {
+                continue;
             }
-            // Every other column (the chunks start on tested columns: CHUNK is even).
-            let tested = passes.iter().enumerate().step_by(STRIDE);
-            for (k, &sides) in tested.filter(|(_, sides)| **sides != 0) {
-                let u = first + chunk * CHUNK + k;
-                let Some(corner) = segment(&rows, u, v, threshold, sides) else {
-                    continue;
-                };
-                let cell = usize::from(cell_row) * usize::from(grid.columns)
-                    + usize::from((corner.u - border) / cell_w);
-                let first = cell * usize::from(grid.per_cell);
-                if let Some(slots) = out.get_mut(first..first + usize::from(grid.per_cell)) {
-                    keep(slots, corner);
-                }
+            let u = first + k * STRIDE;
+            let side = |x: Option<usize>| x.and_then(|x| rows[3].get(x)).copied().unwrap_or(c);
+            let (left, right) = (side(u.checked_sub(3)), side(Some(u + 3)));
+            let (hi, lo) = (c.saturating_add(threshold), c.saturating_sub(threshold));
+            let neighbours = |a: bool, b: bool, c: bool, d: bool| (a | c) & (b | d);
+            let bright = neighbours(up > hi, right > hi, down > hi, left > hi);
+            let dark = neighbours(up < lo, right < lo, down < lo, left < lo);
+            let sides = (u8::from(bright) * BRIGHT) | (u8::from(dark) * DARK);
+            if sides == 0 {
+                continue;
+            }
+            let Some(corner) = segment(&rows, u, v, threshold, sides) else {
+                continue;
+            };
+            let cell = usize::from(cell_row) * usize::from(grid.columns)
+                + usize::from((corner.u - border) / cell_w);
+            let first = cell * usize::from(grid.per_cell);
+            if let Some(slots) = out.get_mut(first..first + usize::from(grid.per_cell)) {
+                keep(slots, corner);
             }
         }
     }
-}
-
-/// Columns `first..end` of `row`, each shifted by `shift`; empty where they leave the row.
-fn span(row: &[u8], first: usize, end: usize, shift: isize) -> &[u8] {
-    let at = |x: usize| x.checked_add_signed(shift).unwrap_or(0);
-    row.get(at(first)..at(end)).unwrap_or_default()
 }
 
 /// Which arcs the pre-test leaves possible: brighter than the centre, darker.

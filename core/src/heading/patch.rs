@@ -204,19 +204,13 @@ fn costs<F: Frame + ?Sized>(frame: &F, patch: &Patch, u: u16, v: u16) -> [i64; 9
     }
     core::array::from_fn(|k| {
         let (ox, oy) = (k % 3, k / 3);
-        // The window's patch at this offset, row by row like `patch`: one run of AREA pixels,
-        // which the compiler sums several at a time.
-        let mut shifted = [0u8; AREA];
-        for (out, w_row) in shifted.chunks_exact_mut(SIDE).zip(window.iter().skip(oy)) {
-            for (o, &w) in out.iter_mut().zip(w_row.iter().skip(ox)) {
-                *o = w;
-            }
-        }
         let (mut sum_d, mut sum_sq) = (0i32, 0i32);
-        for (&a, &b) in patch.iter().zip(&shifted) {
-            let d = i32::from(a) - i32::from(b);
-            sum_d += d;
-            sum_sq += d * d;
+        for (p_row, w_row) in patch.chunks_exact(SIDE).zip(&window[oy..oy + SIDE]) {
+            for (&a, &b) in p_row.iter().zip(&w_row[ox..ox + SIDE]) {
+                let d = i32::from(a) - i32::from(b);
+                sum_d += d;
+                sum_sq += d * d;
+            }
         }
         AREA as i64 * i64::from(sum_sq) - i64::from(sum_d) * i64::from(sum_d)
     })
