@@ -10,15 +10,7 @@ use roadvo::{Camera, Config, Mount};
 struct Storage([u8; ROADVO_ODOMETER_SIZE]);
 
 fn kitti() -> Config {
-    let camera = Camera {
-        width_px: 1241,
-        height_px: 376,
-        fx_px: 718.856,
-        fy_px: 718.856,
-        cx_px: 607.1928,
-        cy_px: 185.2157,
-        ..Camera::DEFAULT
-    };
+    let camera = Camera::KITTI_00;
     let mount = Mount {
         x_m: 1.0,
         height_m: 1.65,

@@ -49,6 +49,19 @@ settings! {
 }
 
 impl Camera {
+    /// The KITTI odometry benchmark's camera 0 on sequences 00 to 02 (their calib.txt's `P0`,
+    /// 1241x376, rectified): the reference camera of the tests, the fuzz targets and the
+    /// firmware example's default configuration.
+    pub const KITTI_00: Self = Self {
+        width_px: 1241,
+        height_px: 376,
+        fx_px: 718.856,
+        fy_px: 718.856,
+        cx_px: 607.1928,
+        cy_px: 185.2157,
+        ..Self::DEFAULT
+    };
+
     /// The size of its frames.
     pub fn image(&self) -> ImageSize {
         ImageSize {

@@ -6,15 +6,7 @@
 
 /// The configuration.
 pub const CONFIG: roadvo::Config = roadvo::Config {
-    camera: roadvo::Camera {
-        width_px: 1241,
-        height_px: 376,
-        fx_px: 718.856,
-        fy_px: 718.856,
-        cx_px: 607.1928,
-        cy_px: 185.2157,
-        ..roadvo::Camera::DEFAULT
-    },
+    camera: roadvo::Camera::KITTI_00,
     mount: roadvo::Mount {
         x_m: 1.0,
         height_m: 1.65,

@@ -16,15 +16,7 @@ fuzz_target!(|data: &[u8]| {
     };
     let path = Path::new("mount.toml");
     let _ = MountFile::parse(text, path, None);
-    let camera = Camera {
-        width_px: 1241,
-        height_px: 376,
-        fx_px: 718.856,
-        fy_px: 718.856,
-        cx_px: 607.1928,
-        cy_px: 185.2157,
-        ..Camera::DEFAULT
-    };
+    let camera = Camera::KITTI_00;
     if let Ok(file) = MountFile::parse(text, path, Some(&camera)) {
         let again = MountFile::parse(&file.to_text(true, ""), path, None);
         assert!(again.is_ok(), "{again:?}");

@@ -176,15 +176,7 @@ mod tests {
     use roadvo::wire::config_words;
 
     fn config() -> Config {
-        let camera = Camera {
-            width_px: 1241,
-            height_px: 376,
-            fx_px: 718.856,
-            fy_px: 718.856,
-            cx_px: 607.1928,
-            cy_px: 185.2157,
-            ..Camera::DEFAULT
-        };
+        let camera = Camera::KITTI_00;
         let mut c = Config::with_defaults(
             camera,
             Mount {

@@ -6,15 +6,7 @@ const DEG: f32 = core::f32::consts::PI / 180.0;
 /// The KITTI camera 0 with the paper's KITTI settings.
 pub(crate) fn kitti_config() -> Config {
     Config::with_defaults(
-        Camera {
-            width_px: 1241,
-            height_px: 376,
-            fx_px: 718.856,
-            fy_px: 718.856,
-            cx_px: 607.1928,
-            cy_px: 185.2157,
-            ..Camera::DEFAULT
-        },
+        Camera::KITTI_00,
         Mount {
             x_m: 1.0,
             y_m: 0.0,
