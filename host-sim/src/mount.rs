@@ -13,7 +13,7 @@ use anyhow::{Context, Result, bail};
 use roadvo::setting::Value;
 use roadvo::{Camera, Config, ImageSize, Mount, Settings};
 use serde::{Deserialize, Serialize};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// A whole mount file.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -33,7 +33,7 @@ pub struct MountFile {
 struct MountFileText {
     /// An OpenCV calibration file that gives the camera, relative to the mount file.
     #[serde(skip_serializing_if = "Option::is_none")]
-    opencv_calibration: Option<std::path::PathBuf>,
+    opencv_calibration: Option<PathBuf>,
     #[serde(skip_serializing_if = "Option::is_none")]
     camera: Option<Camera>,
     mount: Mount,
@@ -82,6 +82,18 @@ pub fn camera_of_sequence(seq: &Sequence) -> Result<Camera> {
     Ok(camera)
 }
 
+/// A mount file without a camera (no `[camera]` section, no `opencv_calibration`) read where
+/// no sequence gives one.
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "mount file {} has no [camera] section, and there is no sequence to take the camera from",
+    path.display()
+)]
+pub struct NoCamera {
+    /// The mount file.
+    pub path: PathBuf,
+}
+
 impl MountFile {
     /// Reads and parses a mount file; errors name the file, and the line for syntax errors and
     /// unknown keys. A file without `[camera]` takes `camera` (a sequence's calibration), and is
@@ -113,11 +125,10 @@ impl MountFile {
             (None, _) => None,
         };
         let Some(camera) = calibration.or(file.camera).or_else(|| camera.copied()) else {
-            bail!(
-                "mount file {} has no [camera] section, and there is no sequence to take the \
-                 camera from",
-                path.display()
-            );
+            return Err(NoCamera {
+                path: path.to_owned(),
+            }
+            .into());
         };
         Ok(Self {
             camera,

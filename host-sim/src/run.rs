@@ -6,7 +6,7 @@
 
 use crate::kitti::{Pose, Sequence, pose_of};
 use crate::layout::{Layout, no_calibration};
-use crate::mount::{MountFile, camera_of_sequence, file_key};
+use crate::mount::{MountFile, NoCamera, camera_of_sequence, file_key};
 use crate::output::OutputFile;
 use crate::quality::QualityWriter;
 use anyhow::{Context, Result, anyhow, bail};
@@ -340,27 +340,15 @@ pub fn mount_for(seq: &Sequence, mount: Option<&Path>) -> Result<MountFile> {
         );
     }
     if seq.p0.is_none() {
-        if !has_camera_section(&path) {
-            bail!("{}, and {} has none", no_calibration(seq), path.display());
-        }
-        return MountFile::read(&path, None);
+        return MountFile::read(&path, None).map_err(|e| match e.downcast_ref::<NoCamera>() {
+            Some(_) => anyhow!("{}, and {} has none", no_calibration(seq), path.display()),
+            None => e,
+        });
     }
     let seq_camera = camera_of_sequence(seq)?;
     let file = MountFile::read(&path, Some(&seq_camera))?;
     check_same_camera(&file.camera, &seq_camera, &path, seq)?;
     Ok(file)
-}
-
-/// Whether the mount file at `path` gives a camera (a `[camera]` section or an
-/// `opencv_calibration`); a file that cannot be read or parsed counts as giving one, so that
-/// [`MountFile::read`] says what is wrong with it.
-fn has_camera_section(path: &Path) -> bool {
-    crate::input::read_text(path, crate::input::Input::Mount)
-        .ok()
-        .and_then(|text| toml::from_str::<toml::Table>(&text).ok())
-        .is_none_or(|table| {
-            table.contains_key("camera") || table.contains_key("opencv_calibration")
-        })
 }
 
 /// Largest difference in focal length or principal point between a mount file's `[camera]`
