@@ -81,28 +81,12 @@ pub fn read_poses(path: &Path) -> Result<Vec<Pose>, KittiError> {
     parse_poses(&read_text(path, Input::Poses)?, path)
 }
 
-/// Parses the text of a pose file: one pose of 12 numbers per line; blank lines at the end are
-/// allowed. Errors name `path`, and the line where there is one.
+/// Parses the text of a pose file: one pose of 12 numbers per line (a KITTI trajectory, as
+/// [`crate::pose_file::parse_trajectory`] reads one: blank lines and `#` comments skipped).
+/// Errors name `path`, and the line where there is one.
 pub fn parse_poses(text: &str, path: &Path) -> Result<Vec<Pose>, KittiError> {
-    let mut poses = Vec::new();
-    for (i, line) in text.trim_end().lines().enumerate() {
-        let nums = parse_numbers(path, i + 1, line)?;
-        let pose: Pose = nums.as_slice().try_into().map_err(|_| {
-            line_error(
-                path,
-                i + 1,
-                format!("expected 12 numbers (a 3x4 pose), found {}", nums.len()),
-            )
-        })?;
-        poses.push(pose);
-    }
-    if poses.is_empty() {
-        return Err(KittiError::File {
-            path: path.to_owned(),
-            what: "holds no poses".into(),
-        });
-    }
-    Ok(poses)
+    crate::pose_file::parse_trajectory(text, path, Some(crate::pose_file::PoseFormat::Kitti))
+        .map(|t| t.poses)
 }
 
 /// Writes a pose file, creating its folder.

@@ -72,7 +72,16 @@ const QUATERNION_NORM_TOLERANCE: f64 = 1e-2;
 /// other line must hold the format's count of finite numbers. Errors name the file and line; a
 /// file over [`MAX_POSES_BYTES`](crate::input::MAX_POSES_BYTES) is refused unread.
 pub fn read_trajectory(path: &Path, format: Option<PoseFormat>) -> Result<TimedPoses, KittiError> {
-    let text = read_text(path, Input::Poses)?;
+    parse_trajectory(&read_text(path, Input::Poses)?, path, format)
+}
+
+/// Parses the text of a trajectory file read from `path` (named in errors, with the line), as
+/// [`read_trajectory`] does.
+pub fn parse_trajectory(
+    text: &str,
+    path: &Path,
+    format: Option<PoseFormat>,
+) -> Result<TimedPoses, KittiError> {
     let line_error = |line: usize, what: String| line_error(path, line, what);
     let mut format = format;
     let mut poses = Vec::new();
