@@ -245,6 +245,86 @@ mod tests {
         }
     }
 
+    /// The segment test as written, without the pre-tests: every tested pixel in turn, each
+    /// corner offered to the same cells, in the same order.
+    fn reference(
+        frame: &SliceFrame,
+        threshold: u8,
+        grid: Grid,
+        border: u16,
+    ) -> Vec<Option<ImageCorner>> {
+        let mut out = vec![None; grid.capacity()];
+        let (w, h) = (frame.width(), frame.height());
+        let cell_w = (w - 2 * border).div_ceil(grid.columns);
+        let cell_h = (h - 2 * border).div_ceil(grid.rows);
+        let t = i16::from(threshold);
+        for v in (border..h - border).step_by(STRIDE) {
+            for u in (border..w - border).step_by(STRIDE) {
+                let px = |r: u16, c: u16| i16::from(frame.row(r)[usize::from(c)]);
+                let centre = px(v, u);
+                let ring: Vec<i16> = RING
+                    .iter()
+                    .map(|&(r, c)| px(v + r as u16 - 3, u + c as u16 - 3))
+                    .collect();
+                let mask = |f: &dyn Fn(i16) -> bool| {
+                    ring.iter()
+                        .enumerate()
+                        .fold(0u16, |m, (k, &p)| m | (u16::from(f(p)) << k))
+                };
+                let (hi, lo) = (centre + t, centre - t);
+                let score: i32 = if has_arc(mask(&|p| p > hi)) {
+                    ring.iter().map(|&p| i32::from((p - hi).max(0))).sum()
+                } else if has_arc(mask(&|p| p < lo)) {
+                    ring.iter().map(|&p| i32::from((lo - p).max(0))).sum()
+                } else {
+                    continue;
+                };
+                let corner = ImageCorner {
+                    u,
+                    v,
+                    score: score as u16,
+                };
+                let cell = usize::from((v - border) / cell_h) * usize::from(grid.columns)
+                    + usize::from((u - border) / cell_w);
+                let first = cell * usize::from(grid.per_cell);
+                keep(&mut out[first..first + usize::from(grid.per_cell)], corner);
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn the_pre_tests_drop_no_corner_of_the_segment_test() {
+        let (w, h) = (96u16, 64u16);
+        let mut next = crate::test_rng::uniform(17);
+        // Blocks of random grey levels (corners where they meet) under pixel noise.
+        let blocks: Vec<u8> = (0..24 * 16).map(|_| (next() * 255.0) as u8).collect();
+        let img: Vec<u8> = (0..usize::from(w) * usize::from(h))
+            .map(|k| {
+                let (x, y) = (k % usize::from(w), k / usize::from(w));
+                let noise = (next() * 24.0) as u8;
+                blocks[(y / 4) * 24 + x / 4].saturating_add(noise)
+            })
+            .collect();
+        let frame = SliceFrame::new(&img, w, h, usize::from(w)).unwrap();
+        let grid = Grid {
+            columns: 4,
+            rows: 2,
+            per_cell: 6,
+        };
+        for threshold in [5, 20, 60] {
+            let mut out = vec![None; grid.capacity()];
+            detect(&frame, threshold, grid, 8, &mut out);
+            let found = out.iter().flatten().count();
+            assert!(found > 8, "threshold {threshold}: {found} corners");
+            assert_eq!(
+                out,
+                reference(&frame, threshold, grid, 8),
+                "threshold {threshold}"
+            );
+        }
+    }
+
     #[test]
     fn arcs_wrap_round_the_ring() {
         assert!(has_arc(0b1111_1111_1000_0000 | 0b1));
