@@ -245,8 +245,8 @@ mod tests {
         }
     }
 
-    /// The segment test as written, without the pre-tests: every tested pixel in turn, each
-    /// corner offered to the same cells, in the same order.
+    /// The detector without its pre-tests: the segment test, both arcs, at every tested pixel,
+    /// each corner offered to the same cells in the same order.
     fn reference(
         frame: &SliceFrame,
         threshold: u8,
@@ -257,32 +257,12 @@ mod tests {
         let (w, h) = (frame.width(), frame.height());
         let cell_w = (w - 2 * border).div_ceil(grid.columns);
         let cell_h = (h - 2 * border).div_ceil(grid.rows);
-        let t = i16::from(threshold);
         for v in (border..h - border).step_by(STRIDE) {
+            let rows: [&[u8]; 7] = core::array::from_fn(|k| frame.row(v - 3 + k as u16));
             for u in (border..w - border).step_by(STRIDE) {
-                let px = |r: u16, c: u16| i16::from(frame.row(r)[usize::from(c)]);
-                let centre = px(v, u);
-                let ring: Vec<i16> = RING
-                    .iter()
-                    .map(|&(r, c)| px(v + r as u16 - 3, u + c as u16 - 3))
-                    .collect();
-                let mask = |f: &dyn Fn(i16) -> bool| {
-                    ring.iter()
-                        .enumerate()
-                        .fold(0u16, |m, (k, &p)| m | (u16::from(f(p)) << k))
-                };
-                let (hi, lo) = (centre + t, centre - t);
-                let score: i32 = if has_arc(mask(&|p| p > hi)) {
-                    ring.iter().map(|&p| i32::from((p - hi).max(0))).sum()
-                } else if has_arc(mask(&|p| p < lo)) {
-                    ring.iter().map(|&p| i32::from((lo - p).max(0))).sum()
-                } else {
+                let Some(corner) = segment(&rows, usize::from(u), v, threshold, BRIGHT | DARK)
+                else {
                     continue;
-                };
-                let corner = ImageCorner {
-                    u,
-                    v,
-                    score: score as u16,
                 };
                 let cell = usize::from((v - border) / cell_h) * usize::from(grid.columns)
                     + usize::from((u - border) / cell_w);
