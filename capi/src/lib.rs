@@ -31,7 +31,7 @@ use roadvo::{
 
 /// Words of a configuration ([`roadvo_configure`]): the camera's, the mount's and the odometer
 /// settings', each in the core's order (`roadvo::wire::config_words`).
-pub const ROADVO_CONFIG_WORDS: usize = 58;
+pub const ROADVO_CONFIG_WORDS: usize = 59;
 
 /// Words of an estimate's trace record ([`roadvo_trace_record`]): what the firmware examples
 /// print and the host's `roadvo run --trace` writes, compared bit for bit.
@@ -39,10 +39,10 @@ pub const ROADVO_TRACE_WORDS: usize = 11;
 
 /// Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 32-bit Arm target.
 #[cfg(target_arch = "arm")]
-pub const ROADVO_ODOMETER_SIZE: usize = 57_568;
+pub const ROADVO_ODOMETER_SIZE: usize = 57_592;
 /// Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 64-bit host.
 #[cfg(target_arch = "x86_64")]
-pub const ROADVO_ODOMETER_SIZE: usize = 57_672;
+pub const ROADVO_ODOMETER_SIZE: usize = 57_696;
 
 /// Alignment of an odometer's storage, bytes.
 pub const ROADVO_ODOMETER_ALIGN: usize = 8;

@@ -70,6 +70,7 @@
 #[cfg(test)]
 extern crate std;
 
+pub mod calibration;
 pub mod config;
 pub mod frame;
 pub mod harris;
@@ -89,6 +90,7 @@ pub mod tracks;
 pub mod vote;
 pub mod wire;
 
+pub use calibration::{Calibration, CalibrationError};
 pub use config::{Config, ConfigError, ImageRoi, Method, Settings, ValidConfig};
 pub use frame::{Frame, ImageSize, SliceFrame};
 pub use harris::{Corner, Corners, HarrisScratch};

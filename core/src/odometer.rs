@@ -1,6 +1,7 @@
 //! The per-frame flow: [`Odometer::process`] reads top-down as the method's steps, numbered as
 //! in `docs/method.md`.
 
+use crate::calibration::{self, Calibration};
 use crate::config::{ConfigError, ValidConfig};
 use crate::frame::Frame;
 use crate::harris::{self, Corners, HarrisScratch};
@@ -167,6 +168,12 @@ pub struct Odometer<
     corners: Corners<MAX_FEATURES>,
     harris: HarrisScratch,
     estimator: Estimator<MAX_TRACKS, MAX_FEATURES, GRID, IMAGE_FEATURES>,
+    /// The mount learned while driving, kept across [`reset`](Self::reset).
+    calibration: Calibration,
+    /// The configured mount's yaw, radians: `config` holds it turned by `applied_yaw_rad`.
+    mount_yaw_rad: f32,
+    /// The calibration's yaw that `config`'s mount is turned by, radians.
+    applied_yaw_rad: f32,
 }
 
 impl<
@@ -200,6 +207,9 @@ impl<
             corners: Corners::new(),
             harris: HarrisScratch::new(),
             estimator: Estimator::ZERO,
+            calibration: Calibration::NONE,
+            mount_yaw_rad: 0.0,
+            applied_yaw_rad: 0.0,
         }
     };
 
@@ -210,9 +220,9 @@ impl<
         Ok(odometer)
     }
 
-    /// Takes `config` and forgets every frame. Fails, leaving the odometer as it was, if the
-    /// configuration asks for more corners per side than `MAX_FEATURES`, or more over the
-    /// whole image than `IMAGE_FEATURES`.
+    /// Takes `config` and forgets every frame and the calibration (a new mount). Fails, leaving
+    /// the odometer as it was, if the configuration asks for more corners per side than
+    /// `MAX_FEATURES`, or more over the whole image than `IMAGE_FEATURES`.
     pub fn configure(&mut self, config: ValidConfig) -> Result<(), ConfigError> {
         let s = config.settings();
         if usize::from(s.features_per_side) > MAX_FEATURES {
@@ -228,10 +238,27 @@ impl<
                 field: "image_corners_per_cell",
             });
         }
+        self.mount_yaw_rad = config.config().mount.yaw_rad;
+        self.applied_yaw_rad = 0.0;
+        self.calibration = Calibration::NONE;
         self.config = config;
         self.estimator.configure(&self.config);
         self.reset();
         Ok(())
+    }
+
+    /// The mount learned while driving (with `learn_yaw`): save it
+    /// ([`Calibration::to_bytes`]) before the ignition goes off and give it back with
+    /// [`restore_calibration`](Self::restore_calibration).
+    pub fn calibration(&self) -> &Calibration {
+        &self.calibration
+    }
+
+    /// Takes a calibration learned before (with this configuration's mount): it stands from
+    /// the next frame on, and goes on learning.
+    pub fn restore_calibration(&mut self, calibration: Calibration) {
+        self.calibration = calibration;
+        self.apply_calibration();
     }
 
     /// The vehicle's pose after the last frame, in the vehicle frame of the first frame.
@@ -239,7 +266,7 @@ impl<
         self.axle_pose()
     }
 
-    /// The configuration in use.
+    /// The configuration in use: the one given, its mount turned by the calibration.
     pub fn config(&self) -> &ValidConfig {
         &self.config
     }
@@ -252,7 +279,8 @@ impl<
         self.tracks.as_slice()
     }
 
-    /// Forgets every frame: the next one starts a new trajectory at the origin.
+    /// Forgets every frame: the next one starts a new trajectory at the origin. The calibration
+    /// stays (the same car).
     pub fn reset(&mut self) {
         self.state = State::START;
         self.tracks.clear();
@@ -328,6 +356,7 @@ impl<
             pivot_m,
         };
         let voted = self.estimator.vote(&self.config, &inputs);
+        let sideways = voted.sideways;
         quality.tracks_matched = voted.matched as u16;
         quality.vote_peak = voted.peak;
         quality.pitch_rad = voted.attitude.pitch_rad;
@@ -374,11 +403,41 @@ impl<
         };
         self.state.last_interval = interval;
         self.state.last_timestamp = Some(timestamp);
+        // 12. Calibrate: a trusted frame's step across the chord feeds the learned yaw, which
+        // turns the mount once it has moved far enough.
+        let learn = trusted && self.config.settings().learn_yaw;
+        if let Some(step) = sideways.filter(|_| learn) {
+            let applied = self.applied_yaw_rad;
+            self.calibration.measure(step, motion.distance_m, applied);
+            self.apply_calibration();
+        }
         Ok(Estimate {
             motion,
             pose: self.axle_pose(),
             quality,
         })
+    }
+
+    /// Turns the configured mount by the calibration's yaw where it is settled and has moved
+    /// by [`calibration::APPLY_STEP_RAD`] from the yaw in use; a turned mount that does not
+    /// validate leaves the one in use.
+    fn apply_calibration(&mut self) {
+        let c = &self.calibration;
+        let yaw_rad = if c.settled() {
+            c.applied_yaw_rad()
+        } else {
+            0.0
+        };
+        if (yaw_rad - self.applied_yaw_rad).abs() < calibration::APPLY_STEP_RAD {
+            return;
+        }
+        let mut config = *self.config.config();
+        config.mount.yaw_rad = self.mount_yaw_rad + yaw_rad;
+        if let Ok(turned) = config.validate() {
+            self.config = turned;
+            self.estimator.remount(&self.config);
+            self.applied_yaw_rad = yaw_rad;
+        }
     }
 
     /// Refuses a frame of the wrong size or time; otherwise the interval since the previous

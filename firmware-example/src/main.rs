@@ -196,6 +196,14 @@ fn replay(odometer: &mut Odometer) -> Result<(), Error> {
         pose.y_m,
         pose.heading_rad
     );
+    // What an ECU would keep in non-volatile memory for the next ignition.
+    let c = odometer.calibration();
+    defmt::println!(
+        "learned mount: yaw {=f32} rad from the mount file's over {=f32} m; saved as {=[u8]:x}",
+        c.yaw_rad,
+        c.distance_m,
+        c.to_bytes()[..]
+    );
     Ok(())
 }
 

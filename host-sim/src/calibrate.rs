@@ -126,6 +126,8 @@ fn cost(
         .map(|mm| {
             let mut moved = *mount;
             moved.mount.height_m += mm * 1e-3;
+            // The mount as given: the reference the online calibration is compared with.
+            moved.settings.learn_yaw = false;
             let Ok(config) = config_for(seq, &moved, method) else {
                 return Ok(f64::INFINITY);
             };

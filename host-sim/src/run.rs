@@ -13,7 +13,8 @@ use anyhow::{Context, Result, anyhow, bail};
 use image::GrayImage;
 use roadvo::wire::trace;
 use roadvo::{
-    Camera, ConfigError, Estimate, Instant, Method, Odometer, SliceFrame, Smoother, ValidConfig,
+    Calibration, Camera, ConfigError, Estimate, Instant, Method, Odometer, SliceFrame, Smoother,
+    ValidConfig,
 };
 use serde::Serialize;
 use std::borrow::Cow;
@@ -134,6 +135,8 @@ pub struct Ran {
     /// The frame the run stopped at and why (a bad frame under [`BadFrames::Stop`], or an
     /// interruption); `None` when every frame was run.
     pub stopped: Option<Skipped>,
+    /// The mount the odometer learned, after the last frame run.
+    pub calibration: Calibration,
 }
 
 impl Skipped {
@@ -182,6 +185,7 @@ pub fn run_frames_inspected(
         timing: Timing::default(),
         skipped: Vec::new(),
         stopped: None,
+        calibration: Calibration::NONE,
     };
     for i in 0..source.len() {
         if let Err(cause) = crate::interrupt::check() {
@@ -214,6 +218,7 @@ pub fn run_frames_inspected(
             }
         }
     }
+    ran.calibration = *odo.calibration();
     Ok(ran)
 }
 
@@ -422,11 +427,16 @@ pub struct QualityLine {
     image_matches: u16,
     image_inliers: u16,
     image_heading: bool,
+    /// The learned correction of the mount's yaw after the frame, radians ([`Calibration`]).
+    learned_yaw_rad: f32,
+    /// The road it rests on, metres.
+    learned_road_m: f32,
 }
 
 impl QualityLine {
-    /// Frame `frame`'s line, taken at `time_s`, for its estimate `e`.
-    pub fn of(frame: usize, time_s: f64, e: &Estimate) -> Self {
+    /// Frame `frame`'s line, taken at `time_s`, for its estimate `e` and the odometer's
+    /// calibration `c` after it.
+    pub fn of(frame: usize, time_s: f64, e: &Estimate, c: &Calibration) -> Self {
         let q = &e.quality;
         Self {
             frame,
@@ -451,6 +461,8 @@ impl QualityLine {
             image_matches: q.image_matches,
             image_inliers: q.image_inliers,
             image_heading: q.image_heading,
+            learned_yaw_rad: c.yaw_rad,
+            learned_road_m: c.distance_m,
         }
     }
 }
@@ -534,11 +546,16 @@ pub fn run(
     let mut estimates = Vec::with_capacity(source.len());
     let mut frames_run = Vec::with_capacity(source.len());
     let mut trajectory = Trajectory::new(config, source.len())?;
-    let ran = run_frames(source, config, bad, |i, est, t, _| {
+    let ran = run_frames_inspected(source, config, bad, |i, est, t, _, odo| {
         frames_run.push(i);
         let smoothed = trajectory.push(est, t);
         if let Some(out) = quality_out.as_mut() {
-            out.write(&QualityLine::of(i, source.time_s(i), &est))?;
+            out.write(&QualityLine::of(
+                i,
+                source.time_s(i),
+                &est,
+                odo.calibration(),
+            ))?;
         }
         if let Some(out) = trace_out.as_mut() {
             out.write_line(&trace_line("estimate", i, &est))?;

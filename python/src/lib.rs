@@ -201,7 +201,7 @@ impl PyOdometer {
             .ok_or_else(|| RoadvoError::new_err("the frame's buffer is too short"))?;
         let t = Instant::from_micros(kitti::micros(t_s));
         let estimate = self.odometer.process(&frame, t).map_err(error)?;
-        let line = QualityLine::of(self.estimates, t_s, &estimate);
+        let line = QualityLine::of(self.estimates, t_s, &estimate, self.odometer.calibration());
         self.estimates += 1;
         Ok(pythonize::pythonize(py, &line)?)
     }

@@ -206,5 +206,9 @@ settings! {
         /// turn from a sideways step, and the ground window's vote is the better there.
         image_max_heading_sd_rad: f32 = deg(0.05), above 0.0, max 10.0
             => "image_max_heading_sd_deg";
+        /// Pitch vote: the mount's yaw learned while driving (true): the step across the chord
+        /// that the ground's matched pairs show in every frame, averaged over the road, turns
+        /// the configured mount ([`crate::calibration`]); false: the mount file's yaw stands.
+        learn_yaw: bool = val(true) => "learn_yaw";
     }
 }

@@ -129,8 +129,13 @@ impl<const K: usize> ImageHeading<K> {
 
     /// Takes `cfg`'s camera and forgets every frame.
     pub fn configure(&mut self, cfg: &ValidConfig) {
-        self.model = Model::new(&cfg.config().mount);
+        self.remount(cfg);
         self.reset();
+    }
+
+    /// Takes `cfg`'s mount (turned by the calibration), keeping the features.
+    pub fn remount(&mut self, cfg: &ValidConfig) {
+        self.model = Model::new(&cfg.config().mount);
     }
 
     /// Forgets every frame.

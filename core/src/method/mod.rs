@@ -6,6 +6,7 @@
 pub mod paper;
 pub mod pitch_vote;
 
+use crate::calibration::SidewaysStep;
 use crate::config::{Method, ValidConfig};
 use crate::harris::Corners;
 use crate::heading::ImageMotion;
@@ -59,6 +60,10 @@ pub struct Outcome<'a, const F: usize> {
     /// How many matched tracks the prediction weighs as against the vote; `None`: the vote
     /// alone.
     pub prior_matches: Option<f32>,
+    /// The vehicle's step across the arc's chord that the matched pairs show: a mount's yaw
+    /// error times the distance, on average (see [`crate::calibration`]); `None` where the
+    /// pairs cannot tell it, and for the paper's method.
+    pub sideways: Option<SidewaysStep>,
     /// Track `i`'s observation in this frame, where matched (as many as the tracks or fewer:
     /// the others were not matched).
     pub observed: &'a [Option<Observation>],
@@ -75,6 +80,7 @@ impl<'a, const F: usize> Outcome<'a, F> {
             peak: 0,
             attitude: Attitude::default(),
             prior_matches: None,
+            sideways: None,
             observed: &[],
             observations,
         }
@@ -149,6 +155,14 @@ impl<const N: usize, const F: usize, const GRID: usize, const K: usize> Estimato
     pub fn reset(&mut self, cfg: &ValidConfig) {
         match self {
             Self::PitchVote(pv) => pv.reset(cfg),
+            Self::Paper(_) => {}
+        }
+    }
+
+    /// Takes `cfg`'s mount, turned by the calibration, keeping what the frames taught.
+    pub fn remount(&mut self, cfg: &ValidConfig) {
+        match self {
+            Self::PitchVote(pv) => pv.remount(cfg),
             Self::Paper(_) => {}
         }
     }

@@ -181,6 +181,7 @@ impl<const N: usize, const F: usize, const GRID: usize> Paper<N, F, GRID> {
             peak: peak.score,
             attitude: Attitude::default(),
             prior_matches: None,
+            sideways: None,
             observed: self.observed.get(..n).unwrap_or_default(),
             observations: &self.obs,
         }

@@ -40,6 +40,10 @@ pub struct RunArgs {
     /// Without it a run stops at such a frame and writes what it has, as a partial result.
     #[arg(long)]
     skip_bad_frames: bool,
+    /// Write the mount as the odometer learned it while driving (`learn_yaw`): the mount file
+    /// with its yaw turned by the learned correction, the rest as given.
+    #[arg(long)]
+    learned_mount: Option<PathBuf>,
 }
 
 impl RunArgs {
@@ -80,6 +84,20 @@ impl RunArgs {
         let format = PoseFormat::for_output(&self.out, self.format);
         write_trajectory(&self.out, format, &output.poses, &times_s)?;
         print_summary(&output, &self.out);
+        if let Some(p) = &self.learned_mount {
+            let c = &output.ran.calibration;
+            let mut learned = mount;
+            learned.mount.yaw_rad += c.yaw_rad;
+            let note = format!(
+                "# Learned by `roadvo run` over {:.0} m of {}: yaw {:+.3} deg from the mount \
+                 file's.\n",
+                c.distance_m,
+                self.seq.seq_dir.display(),
+                c.yaw_rad.to_degrees()
+            );
+            learned.write(p, false, &note)?;
+            println!("learned mount written to {}", p.display());
+        }
         // Not after a Ctrl-C: the user asked to stop.
         if let Some(p) = self.plot.as_ref().filter(|_| interrupt::check().is_ok()) {
             self.plot(p, &output.poses)?;
@@ -105,6 +123,11 @@ impl RunArgs {
         outputs.extend(self.quality.as_deref().map(|p| ("--quality", p)));
         outputs.extend(self.trace.as_deref().map(|p| ("--trace", p)));
         outputs.extend(self.plot.as_deref().map(|p| ("--plot", p)));
+        outputs.extend(
+            self.learned_mount
+                .as_deref()
+                .map(|p| ("--learned-mount", p)),
+        );
         if let Some(p) = &self.plot {
             check_format(p)?;
         }
@@ -159,4 +182,13 @@ fn print_summary(run: &RunOutput, out: &Path) {
         1e3 * run.ran.timing.decode.as_secs_f64() / n.max(1) as f64,
         out.display()
     );
+    let c = &run.ran.calibration;
+    if let Some(sd) = c.yaw_sd_rad() {
+        println!(
+            "learned mount: yaw {:+.3} deg (+-{:.3}) from the mount file's, over {:.0} m of road",
+            c.yaw_rad.to_degrees(),
+            sd.to_degrees(),
+            c.distance_m
+        );
+    }
 }

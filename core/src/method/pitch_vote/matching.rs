@@ -1,10 +1,12 @@
 //! Matching at the winning attitude and motion (method step 5): each track takes the untaken
 //! observation with the smallest residual, if under the tolerance across the chord and within
 //! its distance tent along it. The matched pairs also measure the pitch error common to both
-//! frames (the slope of their distances against their range) and, with `refine_heading`, the
-//! heading that balances their residuals across the chord.
+//! frames (the slope of their distances against their range), the step across the chord that
+//! a mount's yaw error adds to every pair alike, and, with `refine_heading`, the heading that
+//! balances their residuals across the chord.
 
 use super::pairs::{HEADING_STEP_RAD, Spread, residual, trig};
+use crate::calibration::SidewaysStep;
 use crate::config::ValidConfig;
 use crate::motion::Motion;
 use crate::projection::GroundPoint;
@@ -18,8 +20,10 @@ pub struct Matches {
     /// Sums over the pairs of (range, distance): n, x, v, xx, xv.
     regression: [f32; 5],
     /// Sums over the pairs of the residual across the chord `r` and its rate with the heading
-    /// `r'`: n, r r', r'^2 (with `refine_heading` only).
-    across: [f32; 3],
+    /// `r'`: n, r, r', r r', r'^2.
+    across: [f32; 5],
+    /// Whether the heading is refined from them (`refine_heading`).
+    refine: bool,
 }
 
 /// Fewest pairs for a regression over them (the common pitch error, the refined heading).
@@ -41,11 +45,11 @@ pub fn match_tracks<const F: usize>(
     let t = trig(motion.heading_change_rad);
     let spread = Spread::new(cfg, false, pivot_m);
     obs.untake_all();
-    let mut m = Matches::default();
-    let stepped = cfg
-        .settings()
-        .refine_heading
-        .then(|| trig(motion.heading_change_rad + HEADING_STEP_RAD));
+    let mut m = Matches {
+        refine: cfg.settings().refine_heading,
+        ..Matches::default()
+    };
+    let stepped = trig(motion.heading_change_rad + HEADING_STEP_RAD);
     for (&p, slot) in prev.iter().zip(observed.iter_mut()) {
         *slot = None;
         let var_p = spread.range_variance(p);
@@ -79,12 +83,16 @@ pub fn match_tracks<const F: usize>(
             let x = 0.5 * (cfg.window_coords(p).0 + cfg.window_coords(o.ground).0);
             let r = &mut m.regression;
             *r = [r[0] + 1.0, r[1] + x, r[2] + v, r[3] + x * x, r[4] + x * v];
-            if let Some(t_step) = &stepped {
-                let (r1, _) = residual(p, o.ground, t_step);
-                let rate = (r1 - r0) / HEADING_STEP_RAD;
-                let a = &mut m.across;
-                *a = [a[0] + 1.0, a[1] + r0 * rate, a[2] + rate * rate];
-            }
+            let (r1, _) = residual(p, o.ground, &stepped);
+            let rate = (r1 - r0) / HEADING_STEP_RAD;
+            let a = &mut m.across;
+            *a = [
+                a[0] + 1.0,
+                a[1] + r0,
+                a[2] + rate,
+                a[3] + r0 * rate,
+                a[4] + rate * rate,
+            ];
         }
     }
     m
@@ -114,13 +122,32 @@ impl Matches {
         Some(-slope * height_m / (2.0 * v))
     }
 
+    /// The vehicle's step across the chord common to every pair: the intercept of the least
+    /// squares line of their residuals across the chord against the residuals' rate with the
+    /// heading (a heading error moves a pair across in proportion to its range, a sideways step
+    /// moves all alike). A camera whose mount file's yaw is too far left by `e` sees the
+    /// vehicle step left of the chord by about `e` times the distance. `None` with fewer than
+    /// eight pairs or where their ranges do not tell the two apart.
+    pub fn sideways_step(&self) -> Option<SidewaysStep> {
+        let [n, r, rate, r_rate, rate_sq] = self.across;
+        let det = n * rate_sq - rate * rate;
+        // Under a metre's spread of the pairs' rates (ranges): the two cannot be told apart.
+        if n < MIN_PAIRS || det <= n * n {
+            return None;
+        }
+        Some(SidewaysStep {
+            sideways_m: (r * rate_sq - rate * r_rate) / det,
+            // The intercept's information over the residuals' variance, in pairs.
+            pairs: det / rate_sq,
+        })
+    }
+
     /// `motion` with its heading refined so that the pairs' residuals across the chord balance:
     /// one Gauss-Newton step of least squares over them, the residual being nearly linear in the
-    /// heading. `motion` itself with fewer than eight pairs, or when `refine_heading` is off (no
-    /// sums were kept).
+    /// heading. `motion` itself with fewer than eight pairs, or when `refine_heading` is off.
     pub fn refined(&self, motion: Motion) -> Motion {
-        let [n, r_rate, rate_sq] = self.across;
-        if n < MIN_PAIRS || rate_sq <= 0.0 {
+        let [n, _, _, r_rate, rate_sq] = self.across;
+        if !self.refine || n < MIN_PAIRS || rate_sq <= 0.0 {
             return motion;
         }
         Motion {

@@ -121,6 +121,13 @@ impl<const N: usize, const F: usize, const GRID: usize, const K: usize> PitchVot
         self.reset(cfg);
     }
 
+    /// Takes `cfg`'s mount (turned by the calibration) in place, keeping what the frames
+    /// taught: the hypotheses are built again, the tracks and the attitude stay.
+    pub fn remount(&mut self, cfg: &ValidConfig) {
+        self.fans.build(cfg);
+        self.image.remount(cfg);
+    }
+
     /// Forgets every frame: the body assumed level.
     pub fn reset(&mut self, cfg: &ValidConfig) {
         self.attitude = AttitudeIndex::level(cfg.settings());
@@ -357,6 +364,7 @@ impl<const N: usize, const F: usize, const GRID: usize, const K: usize> PitchVot
             peak: outcome.peak.score,
             attitude: outcome.attitude.attitude(s),
             prior_matches: Some(s.prior_matches),
+            sideways: matches.sideways_step(),
             observed: self.observed.get(..n).unwrap_or_default(),
             observations: &self.search.obs,
         }
