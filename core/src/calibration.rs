@@ -187,9 +187,7 @@ impl Calibration {
         let bound = CLIP_SPREADS * spread;
         // max then min rather than clamp: no panic path for a bound the compiler cannot order.
         let r = (yaw_rad - self.yaw_rad).max(-bound).min(bound);
-        self.yaw_rad = (self.yaw_rad + share * r)
-            .max(-Self::MAX_YAW_RAD)
-            .min(Self::MAX_YAW_RAD);
+        self.yaw_rad = (self.yaw_rad + share * r).clamp(-Self::MAX_YAW_RAD, Self::MAX_YAW_RAD);
         // The spread follows the clipped residuals, never collapsing on a few alike frames.
         let var = (1.0 - share) * (spread * spread + share * r * r);
         self.yaw_spread_rad = libm::sqrtf(var).max(MIN_SPREAD_RAD);
