@@ -95,7 +95,9 @@ impl RunArgs {
                 self.seq.seq_dir.display(),
                 c.yaw_rad.to_degrees()
             );
-            learned.write(p, false, &note)?;
+            // [camera] where the sequence has no calib.txt to give it (a video, a folder of
+            // frames): the file must stand for it as the one given did.
+            learned.write(p, seq.p0.is_none(), &note)?;
             println!("learned mount written to {}", p.display());
         }
         // Not after a Ctrl-C: the user asked to stop.
