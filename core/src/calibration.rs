@@ -136,12 +136,12 @@ impl Calibration {
         (self.weight > 0.0).then(|| self.yaw_spread_rad * libm::sqrtf(self.weight_sq) / self.weight)
     }
 
-    /// The yaw correction to turn the mount by, radians: the estimate less [`APPLY_SDS`] of its
-    /// standard errors towards the mount file's (none where it is within them), so that an
-    /// estimate the road does not yet support leaves the mount as it is, and a clear error is
-    /// turned away at once.
+    /// The yaw correction to turn the mount by, radians: none before it is
+    /// [`settled`](Self::settled), then the estimate less [`APPLY_SDS`] of its standard errors
+    /// towards the mount file's (none where it is within them), so that an estimate the road
+    /// does not yet support leaves the mount as it is, and a clear error is turned away at once.
     pub fn applied_yaw_rad(&self) -> f32 {
-        let Some(sd) = self.yaw_sd_rad() else {
+        let Some(sd) = self.yaw_sd_rad().filter(|_| self.settled()) else {
             return 0.0;
         };
         let margin = APPLY_SDS * sd;

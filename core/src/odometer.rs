@@ -418,16 +418,11 @@ impl<
         })
     }
 
-    /// Turns the configured mount by the calibration's yaw where it is settled and has moved
-    /// by [`calibration::APPLY_STEP_RAD`] from the yaw in use; a turned mount that does not
+    /// Turns the configured mount by the calibration's applied yaw where that has moved by
+    /// [`calibration::APPLY_STEP_RAD`] from the yaw in use; a turned mount that does not
     /// validate leaves the one in use.
     fn apply_calibration(&mut self) {
-        let c = &self.calibration;
-        let yaw_rad = if c.settled() {
-            c.applied_yaw_rad()
-        } else {
-            0.0
-        };
+        let yaw_rad = self.calibration.applied_yaw_rad();
         if (yaw_rad - self.applied_yaw_rad).abs() < calibration::APPLY_STEP_RAD {
             return;
         }
