@@ -147,6 +147,9 @@ pub struct PyOdometer {
     odometer: Box<roadvo::Odometer>,
     /// Estimates returned so far.
     estimates: usize,
+    /// The given mount's lift to camera poses: `roadvo run` writes the trajectory through the
+    /// mount file's mount, not through the one the calibration turns while driving.
+    lift: roadvo::CameraLift,
 }
 
 #[pymethods]
@@ -159,10 +162,12 @@ impl PyOdometer {
             .to_config()
             .validate()
             .map_err(|e| error(config_error(e)))?;
+        let lift = *config.lift();
         let odometer = roadvo::Odometer::new(config).map_err(|e| error(config_error(e)))?;
         Ok(Self {
             odometer: Box::new(odometer),
             estimates: 0,
+            lift,
         })
     }
 
@@ -219,11 +224,10 @@ impl PyOdometer {
     }
 
     /// The camera's KITTI pose after the last frame (12 numbers, the 3x4 `[R | t]` row-major):
-    /// the pose through the mount, as `roadvo run` writes it without a smoother.
+    /// the pose through the mount file's mount, as `roadvo run` writes it without a smoother.
     #[getter]
     fn camera_pose<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        let config = self.odometer.config();
-        let pose = kitti::pose_of(&config.lift().camera_pose(&self.odometer.pose()));
+        let pose = kitti::pose_of(&self.lift.camera_pose(&self.odometer.pose()));
         pose.to_vec().into_pyarray(py)
     }
 
