@@ -29,6 +29,10 @@
 #define ROADVO_ODOMETER_SIZE 57696
 #endif
 
+// Bytes of a saved calibration ([`roadvo_calibration_save`], [`roadvo_calibration_restore`]):
+// what a firmware keeps in non-volatile memory across ignition cycles.
+#define ROADVO_CALIBRATION_BYTES 28
+
 // Alignment of an odometer's storage, bytes.
 #define ROADVO_ODOMETER_ALIGN 8
 
@@ -91,6 +95,13 @@ typedef enum RoadvoStatus {
   // more than a frame outside the image, or the lens distortion does not invert over the
   // frame.
   ROADVO_STATUS_IMPLAUSIBLE_CAMERA = 24,
+  // The bytes given are not a saved calibration (they do not start with its magic `rvc1`).
+  ROADVO_STATUS_CALIBRATION_NOT_SAVED = 25,
+  // A saved calibration's checksum does not match its fields: the memory that kept it was
+  // corrupted.
+  ROADVO_STATUS_CALIBRATION_CORRUPTED = 26,
+  // A saved calibration's fields are not finite or outside their ranges.
+  ROADVO_STATUS_CALIBRATION_OUT_OF_RANGE = 27,
 } RoadvoStatus;
 
 // An odometer: opaque to C, which holds it in storage of its own ([`roadvo_odometer_init`]).
@@ -259,6 +270,27 @@ enum RoadvoStatus roadvo_flush(struct RoadvoOdometer *odometer, struct RoadvoEst
 // # Safety
 // `odometer` as [`roadvo_odometer_init`] set it (or NULL).
 enum RoadvoStatus roadvo_reset(struct RoadvoOdometer *odometer);
+
+// Writes the mount the odometer has learned while driving (its calibration: the learned yaw,
+// its spread, the road it rests on) to `bytes`, [`ROADVO_CALIBRATION_BYTES`] of them, for
+// non-volatile memory: save it before the ignition goes off, give it back with
+// [`roadvo_calibration_restore`] after [`roadvo_configure`] at the next start.
+//
+// # Safety
+// `odometer` as [`roadvo_odometer_init`] set it (or NULL); `bytes` NULL or pointing at
+// [`ROADVO_CALIBRATION_BYTES`] writable bytes.
+enum RoadvoStatus roadvo_calibration_save(const struct RoadvoOdometer *odometer, uint8_t *bytes);
+
+// Takes a calibration saved by [`roadvo_calibration_save`] (with the same mount): it stands
+// from the next frame on and goes on learning. Call it after [`roadvo_configure`], which
+// forgets the calibration; [`roadvo_reset`] keeps it. Bytes that are not a saved calibration,
+// fail its checksum or hold values out of range are refused and change nothing (a firmware
+// then starts from the mount file's mount).
+//
+// # Safety
+// `odometer` as [`roadvo_odometer_init`] set it (or NULL); `bytes` NULL or pointing at
+// [`ROADVO_CALIBRATION_BYTES`] readable bytes.
+enum RoadvoStatus roadvo_calibration_restore(struct RoadvoOdometer *odometer, const uint8_t *bytes);
 
 // Writes the trace record of `*estimate` to `words` ([`ROADVO_TRACE_WORDS`] of them): the
 // words the firmware examples print and `roadvo run --trace` writes, for a bit-for-bit

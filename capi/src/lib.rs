@@ -25,8 +25,8 @@ use core::fmt::{self, Write as _};
 use core::mem::{align_of, size_of};
 use roadvo::wire::{CONFIG_WORDS, config_from_words, trace};
 use roadvo::{
-    ConfigError, Estimate, Frame, FrameError, Instant, Method, Motion, Odometer, Pose2, Quality,
-    Smoother,
+    Calibration, CalibrationError, ConfigError, Estimate, Frame, FrameError, Instant, Method,
+    Motion, Odometer, Pose2, Quality, Smoother,
 };
 
 /// Words of a configuration ([`roadvo_configure`]): the camera's, the mount's and the odometer
@@ -44,6 +44,10 @@ pub const ROADVO_ODOMETER_SIZE: usize = 57_592;
 #[cfg(target_arch = "x86_64")]
 pub const ROADVO_ODOMETER_SIZE: usize = 57_696;
 
+/// Bytes of a saved calibration ([`roadvo_calibration_save`], [`roadvo_calibration_restore`]):
+/// what a firmware keeps in non-volatile memory across ignition cycles.
+pub const ROADVO_CALIBRATION_BYTES: usize = 28;
+
 /// Alignment of an odometer's storage, bytes.
 pub const ROADVO_ODOMETER_ALIGN: usize = 8;
 
@@ -56,6 +60,7 @@ const _: () = {
         "ROADVO_CONFIG_WORDS must be roadvo::wire::CONFIG_WORDS (settings were added or removed)"
     );
     assert!(ROADVO_TRACE_WORDS == trace::WORDS);
+    assert!(ROADVO_CALIBRATION_BYTES == Calibration::BYTES);
     // When the core's odometer changes size, this fails: `cargo test -p roadvo-c sizes --
     // --nocapture` (and with `--target thumbv7em-none-eabihf` for cargo check's view) prints
     // the size to put above; then the header again (tests/header.rs).
@@ -125,6 +130,13 @@ pub enum RoadvoStatus {
     /// more than a frame outside the image, or the lens distortion does not invert over the
     /// frame.
     ImplausibleCamera = 24,
+    /// The bytes given are not a saved calibration (they do not start with its magic `rvc1`).
+    CalibrationNotSaved = 25,
+    /// A saved calibration's checksum does not match its fields: the memory that kept it was
+    /// corrupted.
+    CalibrationCorrupted = 26,
+    /// A saved calibration's fields are not finite or outside their ranges.
+    CalibrationOutOfRange = 27,
 }
 
 impl From<ConfigError> for RoadvoStatus {
@@ -143,6 +155,17 @@ impl From<ConfigError> for RoadvoStatus {
             ConfigError::RoiTooSmall => Self::RoiTooSmall,
             ConfigError::ExceedsCapacity { .. } => Self::ExceedsCapacity,
             _ => Self::ConfigOther,
+        }
+    }
+}
+
+impl From<CalibrationError> for RoadvoStatus {
+    fn from(e: CalibrationError) -> Self {
+        match e {
+            CalibrationError::Corrupted => Self::CalibrationCorrupted,
+            CalibrationError::OutOfRange => Self::CalibrationOutOfRange,
+            // A wrong magic or length (and a reason a later version adds).
+            _ => Self::CalibrationNotSaved,
         }
     }
 }
@@ -710,6 +733,74 @@ pub unsafe extern "C" fn roadvo_reset(odometer: *mut RoadvoOdometer) -> RoadvoSt
     RoadvoStatus::Ok
 }
 
+/// Writes the mount the odometer has learned while driving (its calibration: the learned yaw,
+/// its spread, the road it rests on) to `bytes`, [`ROADVO_CALIBRATION_BYTES`] of them, for
+/// non-volatile memory: save it before the ignition goes off, give it back with
+/// [`roadvo_calibration_restore`] after [`roadvo_configure`] at the next start.
+///
+/// # Safety
+/// `odometer` as [`roadvo_odometer_init`] set it (or NULL); `bytes` NULL or pointing at
+/// [`ROADVO_CALIBRATION_BYTES`] writable bytes.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn roadvo_calibration_save(
+    odometer: *const RoadvoOdometer,
+    bytes: *mut u8,
+) -> RoadvoStatus {
+    // SAFETY: the contract.
+    let Some(o) = (unsafe { odometer.as_ref() }) else {
+        return RoadvoStatus::NullPointer;
+    };
+    if bytes.is_null() {
+        return RoadvoStatus::NullPointer;
+    }
+    let saved = o.odometer.calibration().to_bytes();
+    // SAFETY: non-NULL, pointing at ROADVO_CALIBRATION_BYTES == Calibration::BYTES writable
+    // bytes (the contract), which is the array's size; u8 needs no alignment.
+    unsafe { bytes.cast::<[u8; Calibration::BYTES]>().write(saved) };
+    RoadvoStatus::Ok
+}
+
+/// Takes a calibration saved by [`roadvo_calibration_save`] (with the same mount): it stands
+/// from the next frame on and goes on learning. Call it after [`roadvo_configure`], which
+/// forgets the calibration; [`roadvo_reset`] keeps it. Bytes that are not a saved calibration,
+/// fail its checksum or hold values out of range are refused and change nothing (a firmware
+/// then starts from the mount file's mount).
+///
+/// # Safety
+/// `odometer` as [`roadvo_odometer_init`] set it (or NULL); `bytes` NULL or pointing at
+/// [`ROADVO_CALIBRATION_BYTES`] readable bytes.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn roadvo_calibration_restore(
+    odometer: *mut RoadvoOdometer,
+    bytes: *const u8,
+) -> RoadvoStatus {
+    // SAFETY: the contract.
+    let Some(o) = (unsafe { odometer_mut(odometer) }) else {
+        return RoadvoStatus::NullPointer;
+    };
+    if bytes.is_null() {
+        return RoadvoStatus::NullPointer;
+    }
+    // SAFETY: non-NULL, pointing at ROADVO_CALIBRATION_BYTES == Calibration::BYTES readable
+    // bytes (the contract), which is the array's size; u8 needs no alignment.
+    let saved = unsafe { bytes.cast::<[u8; Calibration::BYTES]>().read() };
+    if !o.odometer.config().is_set() {
+        let s = RoadvoStatus::NotConfigured;
+        return o.fail(LastError::Status(s), s);
+    }
+    match Calibration::from_bytes(&saved) {
+        Ok(c) => {
+            o.odometer.restore_calibration(c);
+            o.last_error = LastError::None;
+            RoadvoStatus::Ok
+        }
+        Err(e) => {
+            let s = e.into();
+            o.fail(LastError::Status(s), s)
+        }
+    }
+}
+
 /// Writes the trace record of `*estimate` to `words` ([`ROADVO_TRACE_WORDS`] of them): the
 /// words the firmware examples print and `roadvo run --trace` writes, for a bit-for-bit
 /// comparison.
@@ -832,6 +923,9 @@ fn status_text_c(status: RoadvoStatus) -> &'static core::ffi::CStr {
         S::ImplausibleCamera => {
             c"the focal lengths, principal point or lens distortion do not fit the frame's size"
         }
+        S::CalibrationNotSaved => c"the bytes are not a saved calibration",
+        S::CalibrationCorrupted => c"the saved calibration fails its checksum",
+        S::CalibrationOutOfRange => c"the saved calibration holds values out of range",
     }
 }
 

@@ -224,7 +224,7 @@ fn frames_by_buffer_and_by_row_function_give_the_same_estimates_as_the_core() {
 
 #[test]
 fn every_status_has_a_text() {
-    for code in 0..=RoadvoStatus::FrameOther as i32 {
+    for code in 0..=RoadvoStatus::CalibrationOutOfRange as i32 {
         // The enum's values run 0.. without a gap: every one is a status.
         let status = [
             RoadvoStatus::Ok,
@@ -251,8 +251,96 @@ fn every_status_has_a_text() {
             RoadvoStatus::WrongSize,
             RoadvoStatus::TimestampNotIncreasing,
             RoadvoStatus::FrameOther,
+            RoadvoStatus::ImplausibleCamera,
+            RoadvoStatus::CalibrationNotSaved,
+            RoadvoStatus::CalibrationCorrupted,
+            RoadvoStatus::CalibrationOutOfRange,
         ][code as usize];
         assert_eq!(status as i32, code);
         assert!(!status_text(status).is_empty());
+    }
+}
+
+#[test]
+fn a_calibration_saved_is_restored_and_bad_bytes_are_refused() {
+    let mut storage = Box::new(Storage([0; ROADVO_ODOMETER_SIZE]));
+    let odo = new_odometer(&mut storage);
+    // A yaw learned over 200 m: 0.5 deg with a standard error of about 0.05 deg.
+    let learned = Calibration {
+        yaw_rad: 0.5f32.to_radians(),
+        yaw_spread_rad: 1.0f32.to_radians(),
+        weight: 400.0,
+        weight_sq: 1000.0,
+        distance_m: 200.0,
+    };
+    let saved = learned.to_bytes();
+    let mut bytes = [0u8; ROADVO_CALIBRATION_BYTES];
+    // SAFETY: a live odometer; `saved` and `bytes` hold ROADVO_CALIBRATION_BYTES.
+    unsafe {
+        // Before a configuration, which would forget it: refused.
+        assert_eq!(
+            roadvo_calibration_restore(odo, saved.as_ptr()),
+            RoadvoStatus::NotConfigured
+        );
+        let words = config_words(&kitti());
+        assert_eq!(
+            roadvo_configure(odo, words.as_ptr(), words.len()),
+            RoadvoStatus::Ok
+        );
+        // A fresh odometer has learned nothing.
+        assert_eq!(
+            roadvo_calibration_save(odo, bytes.as_mut_ptr()),
+            RoadvoStatus::Ok
+        );
+        assert_eq!(bytes, Calibration::NONE.to_bytes());
+        assert_eq!(
+            roadvo_calibration_restore(odo, saved.as_ptr()),
+            RoadvoStatus::Ok
+        );
+        assert_eq!(
+            roadvo_calibration_save(odo, bytes.as_mut_ptr()),
+            RoadvoStatus::Ok
+        );
+    }
+    assert_eq!(bytes, saved);
+    // The mount turned as the core's odometer turns it.
+    let mut core: Box<Odometer> = Box::new(Odometer::UNCONFIGURED);
+    core.configure(kitti().validate().unwrap()).unwrap();
+    core.restore_calibration(learned);
+    // SAFETY: a live odometer.
+    let turned = unsafe { &*odo }.odometer.config().config().mount;
+    assert_eq!(turned, core.config().config().mount);
+    assert!(turned.yaw_rad > 0.4f32.to_radians(), "{turned:?}");
+    // Bad bytes change nothing and say why.
+    let mut corrupted = saved;
+    corrupted[9] ^= 0x10;
+    let mut foreign = saved;
+    foreign[..4].copy_from_slice(b"JFIF");
+    for (bad, status, says) in [
+        (corrupted, RoadvoStatus::CalibrationCorrupted, "checksum"),
+        (
+            foreign,
+            RoadvoStatus::CalibrationNotSaved,
+            "not a saved calibration",
+        ),
+    ] {
+        // SAFETY: a live odometer; `bad` and `bytes` hold ROADVO_CALIBRATION_BYTES.
+        unsafe {
+            assert_eq!(roadvo_calibration_restore(odo, bad.as_ptr()), status);
+            assert!(describe(odo).contains(says), "{}", describe(odo));
+            roadvo_calibration_save(odo, bytes.as_mut_ptr());
+        }
+        assert_eq!(bytes, saved);
+    }
+    // SAFETY: NULL pointers are refused, not read.
+    unsafe {
+        assert_eq!(
+            roadvo_calibration_restore(odo, core::ptr::null()),
+            RoadvoStatus::NullPointer
+        );
+        assert_eq!(
+            roadvo_calibration_save(core::ptr::null(), bytes.as_mut_ptr()),
+            RoadvoStatus::NullPointer
+        );
     }
 }

@@ -80,6 +80,34 @@ static void print_value(const char *before, uint32_t value, const char *after) {
     board_write(line);
 }
 
+/* Saves the mount the odometer learned while driving, as an ECU keeps it in non-volatile memory
+   for the next ignition, and gives it back as the next start would; prints the bytes. */
+static bool keep_calibration(RoadvoOdometer *odometer) {
+    static const char hex[] = "0123456789abcdef";
+    uint8_t saved[ROADVO_CALIBRATION_BYTES];
+    char line[32 + 3 * ROADVO_CALIBRATION_BYTES];
+    RoadvoStatus s = roadvo_calibration_save(odometer, saved);
+    if (s == ROADVO_STATUS_OK) {
+        s = roadvo_calibration_restore(odometer, saved);
+    }
+    if (s != ROADVO_STATUS_OK) {
+        board_write("calibration not kept: ");
+        board_write(roadvo_status_text(s));
+        board_write("\n");
+        return false;
+    }
+    char *p = put_text(line, "learned mount saved as");
+    for (size_t i = 0; i < ROADVO_CALIBRATION_BYTES; i++) {
+        *p++ = ' ';
+        *p++ = hex[saved[i] >> 4];
+        *p++ = hex[saved[i] & 15u];
+    }
+    *p++ = '\n';
+    *p = '\0';
+    board_write(line);
+    return true;
+}
+
 /* Prints the odometer's last error and `what`. */
 static void print_error(const RoadvoOdometer *odometer, const char *what, RoadvoStatus status) {
     char reason[160];
@@ -173,7 +201,7 @@ static bool replay(RoadvoOdometer *odometer) {
         print_trace("smoothed", smoothed++, &e);
     }
     print_value("drive done: ", frames, " frames\n");
-    return true;
+    return keep_calibration(odometer);
 }
 
 int main(void) {
