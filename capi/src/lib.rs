@@ -164,6 +164,7 @@ impl From<CalibrationError> for RoadvoStatus {
         match e {
             CalibrationError::Corrupted => Self::CalibrationCorrupted,
             CalibrationError::OutOfRange => Self::CalibrationOutOfRange,
+            CalibrationError::NotConfigured => Self::NotConfigured,
             // A wrong magic or length (and a reason a later version adds).
             _ => Self::CalibrationNotSaved,
         }
@@ -784,13 +785,8 @@ pub unsafe extern "C" fn roadvo_calibration_restore(
     // SAFETY: non-NULL, pointing at ROADVO_CALIBRATION_BYTES == Calibration::BYTES readable
     // bytes (the contract), which is the array's size; u8 needs no alignment.
     let saved = unsafe { bytes.cast::<[u8; Calibration::BYTES]>().read() };
-    if !o.odometer.config().is_set() {
-        let s = RoadvoStatus::NotConfigured;
-        return o.fail(LastError::Status(s), s);
-    }
-    match Calibration::from_bytes(&saved) {
-        Ok(c) => {
-            o.odometer.restore_calibration(c);
+    match Calibration::from_bytes(&saved).and_then(|c| o.odometer.restore_calibration(c)) {
+        Ok(()) => {
             o.last_error = LastError::None;
             RoadvoStatus::Ok
         }

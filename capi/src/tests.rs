@@ -306,7 +306,7 @@ fn a_calibration_saved_is_restored_and_bad_bytes_are_refused() {
     // The mount turned as the core's odometer turns it.
     let mut core: Box<Odometer> = Box::new(Odometer::UNCONFIGURED);
     core.configure(kitti().validate().unwrap()).unwrap();
-    core.restore_calibration(learned);
+    core.restore_calibration(learned).unwrap();
     // SAFETY: a live odometer.
     let turned = unsafe { &*odo }.odometer.config().config().mount;
     assert_eq!(turned, core.config().config().mount);

@@ -77,7 +77,7 @@ pub struct Calibration {
     pub distance_m: f32,
 }
 
-/// Why saved bytes were refused.
+/// Why saved bytes, or a calibration given back to an odometer, were refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
@@ -91,6 +91,9 @@ pub enum CalibrationError {
     Corrupted,
     /// A value is not finite or out of its range.
     OutOfRange,
+    /// The odometer has no configuration yet: a calibration belongs to a mount, and
+    /// [`crate::Odometer::configure`] forgets it.
+    NotConfigured,
 }
 
 impl core::fmt::Display for CalibrationError {
@@ -100,6 +103,7 @@ impl core::fmt::Display for CalibrationError {
             Self::WrongMagic => "not a saved roadvo calibration (or one of another version)",
             Self::Corrupted => "the saved calibration's checksum does not match",
             Self::OutOfRange => "a saved calibration value is not finite or out of range",
+            Self::NotConfigured => "the odometer has no configuration for the calibration",
         })
     }
 }
@@ -193,6 +197,26 @@ impl Calibration {
         self.yaw_spread_rad = libm::sqrtf(var).max(MIN_SPREAD_RAD);
     }
 
+    /// Whether every field is finite and in its range: the yaw within
+    /// [`MAX_YAW_RAD`](Self::MAX_YAW_RAD), the spread, weights and distance not negative.
+    pub fn check(&self) -> Result<(), CalibrationError> {
+        let finite_non_negative = [
+            self.yaw_spread_rad,
+            self.weight,
+            self.weight_sq,
+            self.distance_m,
+        ]
+        .iter()
+        .all(|v| v.is_finite() && *v >= 0.0);
+        if !finite_non_negative
+            || !self.yaw_rad.is_finite()
+            || self.yaw_rad.abs() > Self::MAX_YAW_RAD
+        {
+            return Err(CalibrationError::OutOfRange);
+        }
+        Ok(())
+    }
+
     /// The value as bytes for non-volatile memory: [`MAGIC`](Self::MAGIC), the five fields as
     /// little-endian `f32` in declaration order, and a 32-bit checksum (FNV-1a) of the rest.
     pub fn to_bytes(&self) -> [u8; Self::BYTES] {
@@ -246,12 +270,7 @@ impl Calibration {
             weight_sq: next(),
             distance_m: next(),
         };
-        let finite_non_negative = [c.yaw_spread_rad, c.weight, c.weight_sq, c.distance_m]
-            .iter()
-            .all(|v| v.is_finite() && *v >= 0.0);
-        if !finite_non_negative || !c.yaw_rad.is_finite() || c.yaw_rad.abs() > Self::MAX_YAW_RAD {
-            return Err(CalibrationError::OutOfRange);
-        }
+        c.check()?;
         Ok(c)
     }
 }

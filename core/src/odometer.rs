@@ -1,7 +1,7 @@
 //! The per-frame flow: [`Odometer::process`] reads top-down as the method's steps, numbered as
 //! in `docs/method.md`.
 
-use crate::calibration::{self, Calibration};
+use crate::calibration::{self, Calibration, CalibrationError};
 use crate::config::{ConfigError, ValidConfig};
 use crate::frame::Frame;
 use crate::harris::{self, Corners, HarrisScratch};
@@ -255,10 +255,21 @@ impl<
     }
 
     /// Takes a calibration learned before (with this configuration's mount): it stands from
-    /// the next frame on, and goes on learning.
-    pub fn restore_calibration(&mut self, calibration: Calibration) {
+    /// the next frame on, and goes on learning. Refused, changing nothing, before
+    /// [`configure`](Self::configure) (which would forget it:
+    /// [`CalibrationError::NotConfigured`]) or with a field out of range
+    /// ([`CalibrationError::OutOfRange`], [`Calibration::check`]).
+    pub fn restore_calibration(
+        &mut self,
+        calibration: Calibration,
+    ) -> Result<(), CalibrationError> {
+        if !self.config.is_set() {
+            return Err(CalibrationError::NotConfigured);
+        }
+        calibration.check()?;
         self.calibration = calibration;
         self.apply_calibration();
+        Ok(())
     }
 
     /// The vehicle's pose after the last frame, in the vehicle frame of the first frame.
@@ -577,6 +588,43 @@ mod tests {
         // Configuring again starts a new trajectory.
         odo.configure(kitti_config().validate().unwrap()).unwrap();
         assert!(starts_at(&mut odo, &frame, 0));
+    }
+
+    #[test]
+    fn a_calibration_is_refused_unconfigured_or_out_of_range_and_taken_otherwise() {
+        let learned = Calibration {
+            yaw_rad: 0.5f32.to_radians(),
+            yaw_spread_rad: 0.01,
+            weight: 100.0,
+            weight_sq: 10.0,
+            distance_m: 100.0,
+        };
+        let mut odo: Odometer = Odometer::UNCONFIGURED;
+        assert_eq!(
+            odo.restore_calibration(learned),
+            Err(CalibrationError::NotConfigured)
+        );
+        assert_eq!(*odo.calibration(), Calibration::NONE);
+        let cfg = kitti_config().validate().unwrap();
+        odo.configure(cfg).unwrap();
+        let nan = Calibration {
+            weight: f32::NAN,
+            ..learned
+        };
+        assert_eq!(
+            odo.restore_calibration(nan),
+            Err(CalibrationError::OutOfRange)
+        );
+        assert_eq!(*odo.calibration(), Calibration::NONE);
+        assert_eq!(odo.restore_calibration(learned), Ok(()));
+        assert_eq!(*odo.calibration(), learned);
+        // The mount turned by the estimate held short by a standard error.
+        let turned = odo.config().config().mount.yaw_rad - cfg.config().mount.yaw_rad;
+        assert!(
+            (turned - learned.applied_yaw_rad()).abs() < 1e-6,
+            "{turned}"
+        );
+        assert!(turned > 0.4f32.to_radians(), "{turned}");
     }
 
     #[test]

@@ -34,7 +34,8 @@ fn run_part(
 ) -> (Vec<Estimate>, Calibration) {
     let mut odo: Box<Odometer> = Box::new(Odometer::new(config).unwrap());
     if let Some(bytes) = saved {
-        odo.restore_calibration(Calibration::from_bytes(bytes).unwrap());
+        odo.restore_calibration(Calibration::from_bytes(bytes).unwrap())
+            .unwrap();
     }
     let estimates = frames
         .map(|i| {
