@@ -55,6 +55,9 @@ fn has_arc(mask: u16) -> bool {
 /// (and where exactly it sits does not matter: its patch is what is found again).
 const STRIDE: usize = 2;
 
+/// Pixels of a row the compass pre-test takes at once (a multiple of [`STRIDE`]).
+const LANES: usize = 16;
+
 /// The ring of sixteen at radius 3 in a 7x7 window, in order round it from straight up,
 /// clockwise: (row, column).
 const RING: [(usize, usize); 16] = [
@@ -86,6 +89,24 @@ pub fn detect<F: Frame + ?Sized>(
     border: u16,
     out: &mut [Option<ImageCorner>],
 ) {
+    detect_with(frame, threshold, grid, border, out, VECTOR_PRETEST);
+}
+
+/// Whether the compass pre-test takes [`LANES`] pixels at once: where the compiler has vector
+/// instructions for it (x86-64, AArch64). Elsewhere (a Cortex-M) it takes one tested pixel at a
+/// time after a quicker test of its top and bottom, which most pixels fail: cheaper there, and
+/// the same corners.
+const VECTOR_PRETEST: bool = cfg!(any(target_arch = "x86_64", target_arch = "aarch64"));
+
+/// [`detect`], the pre-test taking [`LANES`] pixels at once where `vector`.
+fn detect_with<F: Frame + ?Sized>(
+    frame: &F,
+    threshold: u8,
+    grid: Grid,
+    border: u16,
+    out: &mut [Option<ImageCorner>],
+    vector: bool,
+) {
     out.fill(None);
     let (w, h) = (frame.width(), frame.height());
     let border = border.max(3);
@@ -100,28 +121,20 @@ pub fn detect<F: Frame + ?Sized>(
     for v in (border..h - border).step_by(STRIDE) {
         let rows: [&[u8]; 7] = core::array::from_fn(|k| frame.row(v - 3 + k as u16));
         let cell_row = (v - border) / cell_h;
+        // The compass pixels of every tested one: up, down, left and right three away (the
+        // border keeps them inside the frame).
         let [top, middle, bottom] = [0, 3, 6].map(|r| rows[r].get(first..end).unwrap_or_default());
-        let tested = top.iter().zip(middle).zip(bottom).step_by(STRIDE);
-        for (k, ((&up, &c), &down)) in tested.enumerate() {
-            // Nine in a row take in two neighbouring compass pixels of the four (up and right,
-            // right and down, ...), so the top or the bottom first. In u8: a bound beyond
-            // 0..255 saturates, and nothing lies beyond it.
-            if up.abs_diff(c) <= threshold && down.abs_diff(c) <= threshold {
-                continue;
-            }
-            let u = first + k * STRIDE;
-            let side = |x: Option<usize>| x.and_then(|x| rows[3].get(x)).copied().unwrap_or(c);
-            let (left, right) = (side(u.checked_sub(3)), side(Some(u + 3)));
-            let (hi, lo) = (c.saturating_add(threshold), c.saturating_sub(threshold));
-            let neighbours = |a: bool, b: bool, c: bool, d: bool| (a | c) & (b | d);
-            let bright = neighbours(up > hi, right > hi, down > hi, left > hi);
-            let dark = neighbours(up < lo, right < lo, down < lo, left < lo);
-            let sides = (u8::from(bright) * BRIGHT) | (u8::from(dark) * DARK);
+        let left = rows[3]
+            .get(first.saturating_sub(3)..end - 3)
+            .unwrap_or_default();
+        let right = rows[3].get(first + 3..end + 3).unwrap_or_default();
+        // The segment test at the `j`th pixel from the first, of the arcs `sides` leaves.
+        let mut test = |j: usize, sides: u8| {
             if sides == 0 {
-                continue;
+                return;
             }
-            let Some(corner) = segment(&rows, u, v, threshold, sides) else {
-                continue;
+            let Some(corner) = segment(&rows, first + j, v, threshold, sides) else {
+                return;
             };
             let cell = usize::from(cell_row) * usize::from(grid.columns)
                 + usize::from((corner.u - border) / cell_w);
@@ -129,8 +142,70 @@ pub fn detect<F: Frame + ?Sized>(
             if let Some(slots) = out.get_mut(first..first + usize::from(grid.per_cell)) {
                 keep(slots, corner);
             }
+        };
+        if vector {
+            let rows5 = [top, middle, bottom, left, right];
+            let n = rows5.map(<[u8]>::len).into_iter().min().unwrap_or(0);
+            for base in (0..n).step_by(LANES) {
+                // The row's last pixels are copied out, what lies past them not tested.
+                let mut tail = [[0u8; LANES]; 5];
+                for (t, row) in tail.iter_mut().zip(rows5) {
+                    if row.len() < base + LANES {
+                        for (slot, &p) in t.iter_mut().zip(row.get(base..).unwrap_or_default()) {
+                            *slot = p;
+                        }
+                    }
+                }
+                let lane = |k: usize| -> &[u8; LANES] {
+                    let whole = rows5.get(k).and_then(|r| r.get(base..base + LANES));
+                    match whole.map(<&[u8; LANES]>::try_from) {
+                        Some(Ok(whole)) => whole,
+                        _ => tail.get(k).unwrap_or(&[0; LANES]),
+                    }
+                };
+                let sides = compass([lane(0), lane(1), lane(2), lane(3), lane(4)], threshold);
+                if u128::from_ne_bytes(sides) == 0 {
+                    continue;
+                }
+                for (k, &sides) in sides.iter().enumerate().step_by(STRIDE) {
+                    if base + k < n {
+                        test(base + k, sides);
+                    }
+                }
+            }
+        } else {
+            let tested = top.iter().zip(middle).zip(bottom).step_by(STRIDE);
+            for (k, ((&up, &c), &down)) in tested.enumerate() {
+                // The top or the bottom first (see `arcs`): most pixels stop here.
+                if up.abs_diff(c) <= threshold && down.abs_diff(c) <= threshold {
+                    continue;
+                }
+                let j = k * STRIDE;
+                let side = |row: &[u8]| row.get(j).copied().unwrap_or(c);
+                test(j, arcs([up, c, down, side(left), side(right)], threshold));
+            }
         }
     }
+}
+
+/// The compass pre-test of one pixel: `[up, centre, down, left, right]`, the pixels three
+/// above, at, below, left and right of it. Which arcs it leaves possible ([`BRIGHT`],
+/// [`DARK`]).
+fn arcs([up, c, down, left, right]: [u8; 5], threshold: u8) -> u8 {
+    let (hi, lo) = (c.saturating_add(threshold), c.saturating_sub(threshold));
+    // Nine in a row take in two neighbouring compass pixels of the four (up and right, right
+    // and down, ...), so the top or the bottom. In u8: a bound beyond 0..255 saturates, and
+    // nothing lies beyond it.
+    let bright = ((up > hi) | (down > hi)) & ((left > hi) | (right > hi));
+    let dark = ((up < lo) | (down < lo)) & ((left < lo) | (right < lo));
+    (u8::from(bright) * BRIGHT) | (u8::from(dark) * DARK)
+}
+
+/// The compass pre-test ([`arcs`]) of [`LANES`] pixels at once: `[up, centre, down, left,
+/// right]`, each the pixels three above, at, below, left and right of them.
+fn compass(rows: [&[u8; LANES]; 5], threshold: u8) -> [u8; LANES] {
+    let [up, c, down, left, right] = rows;
+    core::array::from_fn(|j| arcs([up[j], c[j], down[j], left[j], right[j]], threshold))
 }
 
 /// Which arcs the pre-test leaves possible: brighter than the centre, darker.
@@ -275,15 +350,16 @@ mod tests {
 
     #[test]
     fn the_pre_tests_drop_no_corner_of_the_segment_test() {
-        let (w, h) = (96u16, 64u16);
+        // A width whose tested run is no whole number of lanes: the last pixels are tested too.
+        let (w, h) = (101u16, 64u16);
         let mut next = crate::test_rng::uniform(17);
         // Blocks of random grey levels (corners where they meet) under pixel noise.
-        let blocks: Vec<u8> = (0..24 * 16).map(|_| (next() * 255.0) as u8).collect();
+        let blocks: Vec<u8> = (0..26 * 16).map(|_| (next() * 255.0) as u8).collect();
         let img: Vec<u8> = (0..usize::from(w) * usize::from(h))
             .map(|k| {
                 let (x, y) = (k % usize::from(w), k / usize::from(w));
                 let noise = (next() * 24.0) as u8;
-                blocks[(y / 4) * 24 + x / 4].saturating_add(noise)
+                blocks[(y / 4) * 26 + x / 4].saturating_add(noise)
             })
             .collect();
         let frame = SliceFrame::new(&img, w, h, usize::from(w)).unwrap();
@@ -293,15 +369,18 @@ mod tests {
             per_cell: 6,
         };
         for threshold in [5, 20, 60] {
-            let mut out = vec![None; grid.capacity()];
-            detect(&frame, threshold, grid, 8, &mut out);
-            let found = out.iter().flatten().count();
-            assert!(found > 8, "threshold {threshold}: {found} corners");
-            assert_eq!(
-                out,
-                reference(&frame, threshold, grid, 8),
-                "threshold {threshold}"
-            );
+            // Both pre-tests: many pixels at once, and one at a time (a Cortex-M's).
+            for vector in [true, false] {
+                let mut out = vec![None; grid.capacity()];
+                detect_with(&frame, threshold, grid, 8, &mut out, vector);
+                let found = out.iter().flatten().count();
+                assert!(found > 8, "threshold {threshold}: {found} corners");
+                assert_eq!(
+                    out,
+                    reference(&frame, threshold, grid, 8),
+                    "threshold {threshold}, vector {vector}"
+                );
+            }
         }
     }
 
