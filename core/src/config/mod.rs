@@ -186,7 +186,7 @@ impl ValidConfig {
     };
 
     /// Whether this is a validated configuration rather than [`Self::UNSET`].
-    pub fn is_set(&self) -> bool {
+    pub(crate) fn is_set(&self) -> bool {
         self.config.camera.width_px != 0
     }
 

@@ -143,49 +143,51 @@ fn detect_with<F: Frame + ?Sized>(
                 keep(slots, corner);
             }
         };
-        if vector {
-            let rows5 = [top, middle, bottom, left, right];
-            let n = rows5.map(<[u8]>::len).into_iter().min().unwrap_or(0);
-            for base in (0..n).step_by(LANES) {
-                // The row's last pixels are copied out, what lies past them not tested.
-                let mut tail = [[0u8; LANES]; 5];
-                for (t, row) in tail.iter_mut().zip(rows5) {
-                    if row.len() < base + LANES {
-                        for (slot, &p) in t.iter_mut().zip(row.get(base..).unwrap_or_default()) {
-                            *slot = p;
-                        }
-                    }
-                }
-                let lane = |k: usize| -> &[u8; LANES] {
-                    let whole = rows5.get(k).and_then(|r| r.get(base..base + LANES));
-                    match whole.map(<&[u8; LANES]>::try_from) {
-                        Some(Ok(whole)) => whole,
-                        _ => tail.get(k).unwrap_or(&[0; LANES]),
-                    }
-                };
-                let sides = compass([lane(0), lane(1), lane(2), lane(3), lane(4)], threshold);
-                if u128::from_ne_bytes(sides) == 0 {
-                    continue;
-                }
-                for (k, &sides) in sides.iter().enumerate().step_by(STRIDE) {
-                    if base + k < n {
-                        test(base + k, sides);
-                    }
-                }
+        // Whole runs of LANES pixels at once where `vector`; the rest (all of a row on a
+        // Cortex-M) one tested pixel at a time.
+        let rows5 = [top, middle, bottom, left, right];
+        let whole = match rows5.map(<[u8]>::len).into_iter().min() {
+            Some(n) if vector => n / LANES * LANES,
+            _ => 0,
+        };
+        for base in (0..whole).step_by(LANES) {
+            let lane = |row| lanes_at(row, base);
+            let (Some(up), Some(c), Some(down), Some(l), Some(r)) = (
+                lane(top),
+                lane(middle),
+                lane(bottom),
+                lane(left),
+                lane(right),
+            ) else {
+                continue;
+            };
+            let lanes = [up, c, down, l, r];
+            let sides = compass(lanes, threshold);
+            if u128::from_ne_bytes(sides) == 0 {
+                continue;
             }
-        } else {
-            let tested = top.iter().zip(middle).zip(bottom).step_by(STRIDE);
-            for (k, ((&up, &c), &down)) in tested.enumerate() {
-                // The top or the bottom first (see `arcs`): most pixels stop here.
-                if up.abs_diff(c) <= threshold && down.abs_diff(c) <= threshold {
-                    continue;
-                }
-                let j = k * STRIDE;
-                let side = |row: &[u8]| row.get(j).copied().unwrap_or(c);
-                test(j, arcs([up, c, down, side(left), side(right)], threshold));
+            for (k, &sides) in sides.iter().enumerate().step_by(STRIDE) {
+                test(base + k, sides);
             }
         }
+        let [top, middle, bottom] =
+            [top, middle, bottom].map(|r| r.get(whole..).unwrap_or_default());
+        let rest = top.iter().zip(middle).zip(bottom).step_by(STRIDE);
+        for (k, ((&up, &c), &down)) in rest.enumerate() {
+            // The top or the bottom first (see `arcs`): most pixels stop here.
+            if up.abs_diff(c) <= threshold && down.abs_diff(c) <= threshold {
+                continue;
+            }
+            let j = whole + k * STRIDE;
+            let side = |row: &[u8]| row.get(j).copied().unwrap_or(c);
+            test(j, arcs([up, c, down, side(left), side(right)], threshold));
+        }
     }
+}
+
+/// The [`LANES`] pixels of `row` from `base`, if it holds them all.
+fn lanes_at(row: &[u8], base: usize) -> Option<&[u8; LANES]> {
+    row.get(base..base + LANES)?.try_into().ok()
 }
 
 /// The compass pre-test of one pixel: `[up, centre, down, left, right]`, the pixels three
