@@ -38,7 +38,7 @@ fn unit(h: u64, k: u64) -> f64 {
 
 /// Smooth value noise in [0, 1), with features of about one unit.
 fn value_noise(x: f64, y: f64, seed: u64, salt: u64) -> f64 {
-    let (fx, fy) = (x.floor(), y.floor());
+    let (fx, fy) = (fast_floor(x), fast_floor(y));
     let (ix, iy) = (fx as i64, fy as i64);
     let (tx, ty) = (x - fx, y - fy);
     let (sx, sy) = (tx * tx * (3.0 - 2.0 * tx), ty * ty * (3.0 - 2.0 * ty));
@@ -50,7 +50,7 @@ fn value_noise(x: f64, y: f64, seed: u64, salt: u64) -> f64 {
 
 /// Smooth 3D value noise in [0, 1), with features of about one unit.
 fn value_noise3(p: [f64; 3], seed: u64, salt: u64) -> f64 {
-    let f = p.map(f64::floor);
+    let f = p.map(fast_floor);
     let i = f.map(|x| x as i64);
     let s = std::array::from_fn::<f64, 3, _>(|k| {
         let t = p[k] - f[k];
@@ -80,6 +80,10 @@ struct PathIndex {
     /// Start of each cell's run in `items` (CSR layout), one more than the cell count.
     cell_start: Vec<u32>,
     items: Vec<u32>,
+    /// Per cell: the samples in it and its eight neighbours are one stretch of the path (one
+    /// unbroken run of indices) that bends gently (radius over `ONE_STRETCH_RADIUS_M`), so that
+    /// the distance of any point in those cells to that stretch has one minimum.
+    one_stretch: Vec<bool>,
 }
 
 const SAMPLE_M: f64 = 0.25;
@@ -92,6 +96,12 @@ const HINT_SPAN: usize = 6;
 /// Farthest from the path a hinted answer is trusted, metres: beyond it two stretches of road
 /// may compete for the nearest.
 const HINT_REACH_M: f64 = 4.0;
+/// Farthest a hinted answer is trusted where only one stretch of the path comes near, metres:
+/// the cell search finds a coarse sample within `CELL_M` there too.
+const ONE_STRETCH_REACH_M: f64 = 7.0;
+/// Least radius of a stretch whose distance to points in its cells has one minimum, metres:
+/// more than the diagonal of three cells by three (the squared distance is then convex along it).
+const ONE_STRETCH_RADIUS_M: f64 = 40.0;
 /// Cell size of the index: the nearest sample is found for points up to this far from the path.
 const CELL_M: f64 = 8.0;
 
@@ -133,13 +143,49 @@ impl PathIndex {
             items[fill[c] as usize] = i as u32;
             fill[c] += 1;
         }
-        Self {
+        let mut index = Self {
             samples,
             origin,
             cells_x,
             cells_y,
             cell_start: counts,
             items,
+            one_stretch: Vec::new(),
+        };
+        index.one_stretch = (0..cells_y)
+            .flat_map(|cy| (0..cells_x).map(move |cx| (cx, cy)))
+            .map(|(cx, cy)| {
+                let mut run = (usize::MAX, 0, 0);
+                index.for_each_near(cx, cy, |i| {
+                    run = (run.0.min(i), run.1.max(i), run.2 + 1);
+                });
+                let unbroken = run.2 == 0 || (run.1 - run.0) / COARSE + 1 == run.2;
+                unbroken && index.gentle(run.0.saturating_sub(COARSE)..run.1 + COARSE)
+            })
+            .collect();
+        index
+    }
+
+    /// The path's radius over the fine samples `range` (clipped to the path) is at least
+    /// `ONE_STRETCH_RADIUS_M`: each step turns by at most `SAMPLE_M` over that radius.
+    fn gentle(&self, range: std::ops::Range<usize>) -> bool {
+        let range = range.start..range.end.min(self.samples.len());
+        self.samples.get(range).is_none_or(|run| {
+            run.windows(2).all(|w| {
+                let turn = (w[0][2] * w[1][3] - w[0][3] * w[1][2]).abs();
+                turn <= SAMPLE_M / ONE_STRETCH_RADIUS_M
+            })
+        })
+    }
+
+    /// Calls `f` with each coarse sample in cell (`cx`, `cy`) and its eight neighbours.
+    fn for_each_near(&self, cx: i64, cy: i64, mut f: impl FnMut(usize)) {
+        for gy in (cy - 1).max(0)..=(cy + 1).min(self.cells_y - 1) {
+            for gx in (cx - 1).max(0)..=(cx + 1).min(self.cells_x - 1) {
+                let c = (gy * self.cells_x + gx) as usize;
+                let run = self.cell_start[c] as usize..self.cell_start[c + 1] as usize;
+                self.items[run].iter().for_each(|&i| f(i as usize));
+            }
         }
     }
 
@@ -147,14 +193,17 @@ impl PathIndex {
     /// `CELL_M` of the path; `None` farther away. The cells index every `COARSE`-th sample; the
     /// nearest of those is refined among its fine neighbours.
     ///
-    /// Tries the fine samples around `hint` first the fine samples around `hint` (the sample found
-    /// for a neighbouring ray): where their distance has a minimum inside that stretch, within
-    /// `HINT_REACH_M`, it is taken without the cell search. `hint` is updated.
+    /// Tries the fine samples around `hint` first (the sample found for a neighbouring ray):
+    /// where their distance has a minimum inside that stretch, within `HINT_REACH_M` (within
+    /// `ONE_STRETCH_REACH_M` where the cells hold one stretch of the path), it is taken without
+    /// the cell search. `hint` is updated.
     fn locate(&self, x: f64, y: f64, hint: &mut usize) -> Option<(f64, f64)> {
         let d2 = |i: usize| {
             let p = &self.samples[i];
             (x - p[0]).powi(2) + (y - p[1]).powi(2)
         };
+        let cx = fast_floor((x - self.origin.0) / CELL_M) as i64;
+        let cy = fast_floor((y - self.origin.1) / CELL_M) as i64;
         if *hint < self.samples.len() {
             let lo = hint.saturating_sub(HINT_SPAN);
             let hi = (*hint + HINT_SPAN).min(self.samples.len() - 1);
@@ -167,26 +216,26 @@ impl PathIndex {
             }
             let interior =
                 (nearest.1 > lo || lo == 0) && (nearest.1 < hi || hi == self.samples.len() - 1);
-            if interior && nearest.0 < HINT_REACH_M * HINT_REACH_M {
+            let one_stretch = (0..self.cells_x).contains(&cx)
+                && (0..self.cells_y).contains(&cy)
+                && self.one_stretch[(cy * self.cells_x + cx) as usize];
+            let reach = if one_stretch {
+                ONE_STRETCH_REACH_M
+            } else {
+                HINT_REACH_M
+            };
+            if interior && nearest.0 < reach * reach {
                 *hint = nearest.1;
                 return Some(self.offsets(x, y, nearest.1));
             }
         }
-        let cx = ((x - self.origin.0) / CELL_M).floor() as i64;
-        let cy = ((y - self.origin.1) / CELL_M).floor() as i64;
         let mut best = (f64::MAX, 0usize);
-        for gy in (cy - 1).max(0)..=(cy + 1).min(self.cells_y - 1) {
-            for gx in (cx - 1).max(0)..=(cx + 1).min(self.cells_x - 1) {
-                let c = (gy * self.cells_x + gx) as usize;
-                let run = self.cell_start[c] as usize..self.cell_start[c + 1] as usize;
-                for &i in &self.items[run] {
-                    let d = d2(i as usize);
-                    if d < best.0 {
-                        best = (d, i as usize);
-                    }
-                }
+        self.for_each_near(cx, cy, |i| {
+            let d = d2(i);
+            if d < best.0 {
+                best = (d, i);
             }
-        }
+        });
         if best.0 > CELL_M * CELL_M {
             return None;
         }
@@ -423,7 +472,7 @@ impl Scene {
 
     /// Offset of a patch (a rotated rectangle of darker or lighter asphalt) covering the point.
     fn patch(&self, x: f64, y: f64) -> f64 {
-        let (fx, fy) = ((x / PATCH_CELL_M).floor(), (y / PATCH_CELL_M).floor());
+        let (fx, fy) = (fast_floor(x / PATCH_CELL_M), fast_floor(y / PATCH_CELL_M));
         let h = hash(fx as i64, fy as i64, self.seed, 3);
         if unit(h, 0) >= self.patch_probability {
             return 0.0;
@@ -656,8 +705,10 @@ impl Scene {
         let mut tiles: Vec<Vec<([i64; 4], f64, &Structure)>> =
             vec![Vec::new(); self.width.div_ceil(TILE) as usize];
         let mut near: Vec<(f64, &Structure)> = Vec::with_capacity(in_view.len());
-        // Neighbouring rays meet the road near each other: carry the path sample along.
-        let mut hint = NO_HINT;
+        // Neighbouring rays meet the road near each other: carry the path sample along, one
+        // for each row of samples in a pixel (half a pixel apart, they meet the road metres apart
+        // near the horizon).
+        let mut hints = vec![NO_HINT; n as usize];
         let mut img = GrayImage::new(self.width, self.height);
         for v in 0..self.height {
             let vi = i64::from(v);
@@ -686,7 +737,7 @@ impl Scene {
                         .map(|&(_, depth, s)| (depth, s)),
                 );
                 let mut sum = 0.0;
-                for j in 0..n {
+                for (j, hint) in (0..n).zip(&mut hints) {
                     for i in 0..n {
                         // Pixel centres sit at integer coordinates.
                         let su = f64::from(u) - 0.5 + (f64::from(i) + 0.5) * inv_n;
@@ -698,7 +749,7 @@ impl Scene {
                         let d = std::array::from_fn(|r| {
                             rot[r][0] * dc[0] + rot[r][1] * dc[1] + rot[r][2] * dc[2]
                         });
-                        sum += self.trace(o, d, &state.boxes, &near, &mut hint);
+                        sum += self.trace(o, d, &state.boxes, &near, hint);
                     }
                 }
                 let mean = sum * inv_n * inv_n;
@@ -1517,6 +1568,40 @@ mod tests {
         assert!((s.height_m(3.0) + 0.08).abs() < 1e-12);
         let (lo, hi) = s.range_m();
         assert!(lo < -0.39 && hi == 0.15);
+    }
+
+    /// On every built-in course, a hinted answer (the hint left by a point nearby, as a
+    /// neighbouring ray leaves it, or by one far away) is the cell search's, out to the reach
+    /// the cells answer: the hint only saves time.
+    #[test]
+    fn a_hinted_answer_is_the_cell_searchs() {
+        for name in ["s-course", "kitti-like", "town"] {
+            let sc = Scenario::built_in(name).unwrap();
+            let path = Path::new(&sc.segments).unwrap();
+            let idx = PathIndex::new(&path);
+            let mut checked = 0;
+            let mut far_hint = NO_HINT;
+            idx.locate(0.0, 0.0, &mut far_hint);
+            for k in 0..(path.length_m() / 0.7) as usize {
+                let p = path.pose_at(k as f64 * 0.7);
+                let (sh, ch) = p.heading_rad.sin_cos();
+                for l in [-7.4, -5.3, -3.1, 0.2, 2.9, 4.4, 6.1, 7.3] {
+                    let (x, y) = (p.x_m - l * sh, p.y_m + l * ch);
+                    let (mut none, mut near, mut far) = (NO_HINT, NO_HINT, far_hint);
+                    let fresh = idx.locate(x, y, &mut none);
+                    idx.locate(x + 0.3, y - 0.4, &mut near);
+                    for hint in [&mut near, &mut far] {
+                        assert_eq!(
+                            idx.locate(x, y, hint),
+                            fresh,
+                            "{name}: ({x}, {y}), offset {l}"
+                        );
+                    }
+                    checked += 1;
+                }
+            }
+            assert!(checked > 1000, "{name}: {checked}");
+        }
     }
 
     /// The town scenario on a small camera (quick to render), and its scene.
