@@ -4,6 +4,7 @@ as exceptions that say what is wrong."""
 
 import json
 import math
+import os
 import subprocess
 from pathlib import Path
 
@@ -43,7 +44,10 @@ pitch_deg = -1.1
 
 @pytest.fixture(scope="module")
 def cli():
-    """The `roadvo` command line, built (or found built) by cargo."""
+    """The `roadvo` command line: ROADVO_BIN where the caller has built one (scripts/test passes
+    the test suite's), else built (or found built) by cargo."""
+    if os.environ.get("ROADVO_BIN"):
+        return str(Path(os.environ["ROADVO_BIN"]).resolve())
     out = subprocess.run(
         ["cargo", "build", "--locked", "-p", "roadvo-sim", "--bin", "roadvo",
          "--message-format=json-render-diagnostics"],
