@@ -159,8 +159,10 @@ impl PathIndex {
                 index.for_each_near(cx, cy, |i| {
                     run = (run.0.min(i), run.1.max(i), run.2 + 1);
                 });
-                let unbroken = run.2 == 0 || (run.1 - run.0) / COARSE + 1 == run.2;
-                unbroken && index.gentle(run.0.saturating_sub(COARSE)..run.1 + COARSE)
+                let (first, last, count) = run;
+                count == 0
+                    || ((last - first) / COARSE + 1 == count
+                        && index.gentle(first.saturating_sub(COARSE)..last + COARSE))
             })
             .collect();
         index
@@ -169,12 +171,11 @@ impl PathIndex {
     /// The path's radius over the fine samples `range` (clipped to the path) is at least
     /// `ONE_STRETCH_RADIUS_M`: each step turns by at most `SAMPLE_M` over that radius.
     fn gentle(&self, range: std::ops::Range<usize>) -> bool {
-        let range = range.start..range.end.min(self.samples.len());
-        self.samples.get(range).is_none_or(|run| {
-            run.windows(2).all(|w| {
-                let turn = (w[0][2] * w[1][3] - w[0][3] * w[1][2]).abs();
-                turn <= SAMPLE_M / ONE_STRETCH_RADIUS_M
-            })
+        let run =
+            &self.samples[range.start.min(self.samples.len())..range.end.min(self.samples.len())];
+        run.windows(2).all(|w| {
+            let turn = (w[0][2] * w[1][3] - w[0][3] * w[1][2]).abs();
+            turn <= SAMPLE_M / ONE_STRETCH_RADIUS_M
         })
     }
 
@@ -204,6 +205,12 @@ impl PathIndex {
         };
         let cx = fast_floor((x - self.origin.0) / CELL_M) as i64;
         let cy = fast_floor((y - self.origin.1) / CELL_M) as i64;
+        // The cells hold one gently bending stretch of the path about the point.
+        let one_stretch = || {
+            (0..self.cells_x).contains(&cx)
+                && (0..self.cells_y).contains(&cy)
+                && self.one_stretch[(cy * self.cells_x + cx) as usize]
+        };
         if *hint < self.samples.len() {
             let lo = hint.saturating_sub(HINT_SPAN);
             let hi = (*hint + HINT_SPAN).min(self.samples.len() - 1);
@@ -216,15 +223,10 @@ impl PathIndex {
             }
             let interior =
                 (nearest.1 > lo || lo == 0) && (nearest.1 < hi || hi == self.samples.len() - 1);
-            let one_stretch = (0..self.cells_x).contains(&cx)
-                && (0..self.cells_y).contains(&cy)
-                && self.one_stretch[(cy * self.cells_x + cx) as usize];
-            let reach = if one_stretch {
-                ONE_STRETCH_REACH_M
-            } else {
-                HINT_REACH_M
-            };
-            if interior && nearest.0 < reach * reach {
+            // Near the path the hint is trusted at once; farther only on one stretch.
+            let trusted = nearest.0 < HINT_REACH_M * HINT_REACH_M
+                || (nearest.0 < ONE_STRETCH_REACH_M * ONE_STRETCH_REACH_M && one_stretch());
+            if interior && trusted {
                 *hint = nearest.1;
                 return Some(self.offsets(x, y, nearest.1));
             }
