@@ -29,3 +29,44 @@ def true_motion(truth, i):
     turn = (turn + math.pi) % (2 * math.pi) - math.pi
     step = math.dist((truth[i][3], truth[i][11]), (truth[i - 1][3], truth[i - 1][11]))
     return turn, step
+
+
+def _rot(axis, a):
+    c, s = math.cos(a), math.sin(a)
+    return {"x": [[1, 0, 0], [0, c, -s], [0, s, c]], "y": [[c, 0, s], [0, 1, 0], [-s, 0, c]],
+            "z": [[c, -s, 0], [s, c, 0], [0, 0, 1]]}[axis]
+
+
+def mul(a, b):
+    """The product of two 3x3 matrices (lists of rows)."""
+    return [[sum(a[i][k] * b[k][j] for k in range(3)) for j in range(3)] for i in range(3)]
+
+
+def transpose(a):
+    return [list(r) for r in zip(*a)]
+
+
+def vehicle_from_camera(mount_file):
+    """The camera-to-vehicle rotation of a mount file, body level, as the core builds it
+    (Mount::rotation_vehicle_from_camera)."""
+    import tomllib
+    m = tomllib.load(open(mount_file, "rb")).get("mount", {})
+    yaw, pitch, roll = (math.radians(m.get(k, 0.0)) for k in ("yaw_deg", "pitch_deg", "roll_deg"))
+    axes = [[0, 0, 1], [-1, 0, 0], [0, -1, 0]]
+    return mul(mul(mul(_rot("z", yaw), _rot("y", -pitch)), _rot("x", roll)), axes)
+
+
+def vehicle_turn(camera_rotation, m):
+    """The vehicle's turn about its own vertical (radians, left positive) of a camera rotation
+    between two frames (the second camera's axes in the first's), seen through the mount's
+    camera-to-vehicle rotation `m`: for a camera pitched down, the turn of its optical axis in
+    its own plane is not the vehicle's."""
+    q = mul(mul(m, camera_rotation), transpose(m))
+    return math.atan2(q[1][0], q[0][0])
+
+
+def true_turn(truth, i, m):
+    """The truth's vehicle turn from frame i - 1 to frame i (`vehicle_turn` of its camera
+    poses)."""
+    r = lambda p: [p[0:3], p[4:7], p[8:11]]
+    return vehicle_turn(mul(transpose(r(truth[i - 1])), r(truth[i])), m)
