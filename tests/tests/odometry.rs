@@ -318,9 +318,18 @@ fn default_method_is_far_ahead_of_the_papers() {
 fn a_wide_lens_is_followed_as_well_as_a_pinhole_once_the_mount_file_holds_its_distortion() {
     // 200 frames (about 150 m) of kitti-like with suspension, rendered through a pinhole and
     // through a wide lens's barrel distortion (k1 = -0.3, k2 = 0.1: 17 px at the frame's
-    // corners); scripts/lens prints the same figures.
-    let t_err = |d: &Drive| d.report.t_err_pct.unwrap();
-    let pinhole = t_err(&drive(
+    // corners); scripts/lens prints the same figures. Judged on the 10..50 m segments and the
+    // path's length, which sum the frames' errors: a lens left out of the mount shrinks every
+    // distance (path 0.973-0.981 of the truth on seeds 1-3, against 0.999-1.008 with it). The
+    // KITTI metric's 100 m segments of a 150 m drive hang on a few frames' headings and move
+    // by two to one between seeds and between the two renderings of one seed.
+    let figures = |d: &Drive| {
+        (
+            d.report.short_t_err_pct.unwrap(),
+            d.report.path_ratio.unwrap(),
+        )
+    };
+    let pinhole = figures(&drive(
         "kitti-like",
         &["suspension"],
         200,
@@ -336,10 +345,16 @@ fn a_wide_lens_is_followed_as_well_as_a_pinhole_once_the_mount_file_holds_its_di
         ),
     ];
     let drives = drives_with("kitti-like", &["suspension", "wide-lens"], 200, &runs);
-    let (lens, left_out) = (t_err(&drives[0]), t_err(&drives[1]));
-    let say = format!("t_err: pinhole {pinhole:.2}%, lens {lens:.2}%, left out {left_out:.2}%");
-    assert!(lens <= 1.1 * pinhole, "{say}");
-    assert!(left_out > 1.5 * lens, "{say}");
+    let (lens, left_out) = (figures(&drives[0]), figures(&drives[1]));
+    let say = format!(
+        "10..50 m t_err and path ratio: pinhole {:.2}% {:.4}, lens {:.2}% {:.4}, left out \
+         {:.2}% {:.4}",
+        pinhole.0, pinhole.1, lens.0, lens.1, left_out.0, left_out.1
+    );
+    assert!(lens.0 <= 1.25 * pinhole.0, "{say}");
+    assert!((lens.1 - 1.0).abs() <= 0.01, "{say}");
+    assert!(left_out.0 > 1.5 * lens.0, "{say}");
+    assert!(left_out.1 < lens.1 - 0.01, "{say}");
 }
 
 /// The town drive's first `frames` (seed 1), `overlays` on top, run three times: with the
