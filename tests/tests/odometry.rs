@@ -11,7 +11,8 @@ use roadvo_sim::mount::MountFile;
 use roadvo_sim::run::{RunOutput, mount_for, run_sequence};
 use roadvo_sim::scenario::Scenario;
 use roadvo_sim::simulate::{poses_path, sequence_dir, simulate};
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 
 struct Drive {
     report: Report,
@@ -19,7 +20,68 @@ struct Drive {
     heading: HeadingChangeErrors,
     run: RunOutput,
     truth: Vec<[f64; 12]>,
-    _dir: std::rc::Rc<tempfile::TempDir>,
+    _dir: std::rc::Rc<Rendered>,
+}
+
+/// Drives that several tests take the first frames of, rendered once per test process (seed 1)
+/// at the longest length any of them takes: a drive's first frames, poses and timestamps do not
+/// depend on how many follow.
+const SHARED: [(&str, &[&str], usize); 3] = [
+    ("kitti-like", &[], 150),
+    ("kitti-like", &["suspension"], 200),
+    ("s-course", &[], 150),
+];
+
+/// A rendered drive's folder (KITTI layout): one of [`SHARED`], or a test's own.
+enum Rendered {
+    Shared(&'static Path),
+    Own(tempfile::TempDir),
+}
+
+impl Rendered {
+    fn path(&self) -> &Path {
+        match self {
+            Rendered::Shared(path) => path,
+            Rendered::Own(dir) => dir.path(),
+        }
+    }
+}
+
+/// `scenario` with `overlays` (seed 1), at least its first `frames` frames: the shared drive
+/// where [`SHARED`] holds one that long, else rendered for the caller alone.
+fn render(scenario: &str, overlays: &[&str], frames: usize) -> Rendered {
+    static DRIVES: [OnceLock<PathBuf>; SHARED.len()] = [const { OnceLock::new() }; SHARED.len()];
+    let render_into = |dir: &Path, frames: usize| {
+        let overlays: Vec<String> = overlays.iter().map(|s| s.to_string()).collect();
+        let sc = Scenario::load(scenario, &overlays).unwrap();
+        simulate(&sc, dir, 1, Some(frames), &()).unwrap();
+    };
+    let shared = SHARED
+        .iter()
+        .position(|&(sc, ov, n)| sc == scenario && ov == overlays && frames <= n);
+    let Some(k) = shared else {
+        let dir = tempfile::tempdir().unwrap();
+        render_into(dir.path(), frames);
+        return Rendered::Own(dir);
+    };
+    Rendered::Shared(DRIVES[k].get_or_init(|| {
+        // Statics are never dropped: the folders live in cargo's scratch folder for integration
+        // tests under the test process's id, and each process removes those of processes gone.
+        let scratch = Path::new(env!("CARGO_TARGET_TMPDIR"));
+        let prefix = "odometry-drives-";
+        if Path::new("/proc/self").exists() {
+            for entry in std::fs::read_dir(scratch).into_iter().flatten().flatten() {
+                let name = entry.file_name().to_string_lossy().into_owned();
+                let pid = name.strip_prefix(prefix).and_then(|r| r.split('-').next());
+                if pid.is_some_and(|pid| !Path::new("/proc").join(pid).exists()) {
+                    let _ = std::fs::remove_dir_all(entry.path());
+                }
+            }
+        }
+        let dir = scratch.join(format!("{prefix}{}-{k}", std::process::id()));
+        render_into(&dir, SHARED[k].2);
+        dir
+    }))
 }
 
 /// Renders a drive and runs each of `methods` over it.
@@ -51,13 +113,13 @@ fn drives_at(
 
 /// Renders a drive and runs it once for each (method, change to the mount file beside it).
 fn drives_with(scenario: &str, overlays: &[&str], frames: usize, runs: &[Run]) -> Vec<Drive> {
-    let dir = std::rc::Rc::new(tempfile::tempdir().unwrap());
-    let overlays: Vec<String> = overlays.iter().map(|s| s.to_string()).collect();
-    let sc = Scenario::load(scenario, &overlays).unwrap();
-    simulate(&sc, dir.path(), 1, Some(frames), &()).unwrap();
-    let seq_dir = sequence_dir(dir.path());
-    let seq = Sequence::open(&seq_dir).unwrap();
-    let truth = read_poses(&poses_path(dir.path())).unwrap();
+    let dir = std::rc::Rc::new(render(scenario, overlays, frames));
+    // The drive's first `frames` (a shared one may be longer).
+    let mut seq = Sequence::open(&sequence_dir(dir.path())).unwrap();
+    seq.frames = frames;
+    seq.times_s.truncate(frames);
+    let mut truth = read_poses(&poses_path(dir.path())).unwrap();
+    truth.truncate(frames);
     runs.iter()
         .map(|(method, tweak)| {
             let mut mount = mount_for(&seq, None).unwrap();
@@ -161,12 +223,11 @@ fn frames_dropped_without_the_timestamps_saying_so_are_caught_up_with() {
     // the wide vote: path 0.859 of the truth, short-segment t_err 18.5 %); after three weakly
     // supported frames the odometer votes over the start-up window as well, and takes what
     // matches a clear majority of the tracks.
+    let drive = render("kitti-like", &[], 150);
     let dir = tempfile::tempdir().unwrap();
-    let sc = Scenario::load("kitti-like", &[]).unwrap();
-    simulate(&sc, dir.path(), 1, Some(150), &()).unwrap();
     for from in [30, 50] {
         let out = dir.path().join(format!("dropped-{from}"));
-        let truth = with_frames_dropped(dir.path(), from, &out);
+        let truth = with_frames_dropped(drive.path(), from, &out);
         let seq = Sequence::open(&sequence_dir(&out)).unwrap();
         let mount = mount_for(&seq, None).unwrap();
         let run = run_sequence(&seq, &mount, Some(Method::PitchVote)).unwrap();
