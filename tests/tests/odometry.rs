@@ -195,16 +195,17 @@ fn kitti_like_with_suspension_motion() {
     );
 }
 
-/// `drive`'s sequence as a camera would deliver it that drops every other frame from frame
-/// `from` on while its timestamps keep the nominal rate, written into `out`; its ground truth.
-fn with_frames_dropped(drive: &Path, from: usize, out: &Path) -> Vec<[f64; 12]> {
+/// `drive`'s first `frames` as a camera would deliver them that drops every other frame from
+/// frame `from` on while its timestamps keep the nominal rate, written into `out`; its ground
+/// truth.
+fn with_frames_dropped(drive: &Path, frames: usize, from: usize, out: &Path) -> Vec<[f64; 12]> {
     let (src, dst) = (sequence_dir(drive), sequence_dir(out));
     std::fs::create_dir_all(dst.join("image_0")).unwrap();
     for file in ["calib.txt", "mount.toml"] {
         std::fs::copy(src.join(file), dst.join(file)).unwrap();
     }
     let truth = read_poses(&poses_path(drive)).unwrap();
-    let kept: Vec<usize> = (0..from).chain((from..truth.len()).step_by(2)).collect();
+    let kept: Vec<usize> = (0..from).chain((from..frames).step_by(2)).collect();
     let times = std::fs::read_to_string(src.join("times.txt")).unwrap();
     let times: Vec<&str> = times.lines().take(kept.len()).collect();
     std::fs::write(dst.join("times.txt"), times.join("\n") + "\n").unwrap();
@@ -223,11 +224,12 @@ fn frames_dropped_without_the_timestamps_saying_so_are_caught_up_with() {
     // the wide vote: path 0.859 of the truth, short-segment t_err 18.5 %); after three weakly
     // supported frames the odometer votes over the start-up window as well, and takes what
     // matches a clear majority of the tracks.
-    let drive = render("kitti-like", &[], 150);
+    const FRAMES: usize = 150;
+    let drive = render("kitti-like", &[], FRAMES);
     let dir = tempfile::tempdir().unwrap();
     for from in [30, 50] {
         let out = dir.path().join(format!("dropped-{from}"));
-        let truth = with_frames_dropped(drive.path(), from, &out);
+        let truth = with_frames_dropped(drive.path(), FRAMES, from, &out);
         let seq = Sequence::open(&sequence_dir(&out)).unwrap();
         let mount = mount_for(&seq, None).unwrap();
         let run = run_sequence(&seq, &mount, Some(Method::PitchVote)).unwrap();
