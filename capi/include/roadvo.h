@@ -21,12 +21,12 @@
 
 #if defined(__arm__)
 // Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 32-bit Arm target.
-#define ROADVO_ODOMETER_SIZE 57592
+#define ROADVO_ODOMETER_SIZE 56776
 #endif
 
 #if defined(__x86_64__)
 // Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 64-bit host.
-#define ROADVO_ODOMETER_SIZE 57696
+#define ROADVO_ODOMETER_SIZE 56880
 #endif
 
 // Bytes of a saved calibration ([`roadvo_calibration_save`], [`roadvo_calibration_restore`]):

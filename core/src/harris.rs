@@ -2,12 +2,13 @@
 //! only, keeping the strongest few on each side of straight ahead.
 //!
 //! The region of interest is swept in vertical strips `STRIP` columns wide, each top to bottom,
-//! with three-row ring buffers of gradient products and responses: about 4 KiB of scratch
+//! with three-row ring buffers of gradient products and responses: about 3.5 KiB of scratch
 //! whatever the frame's width, and every image row is read from the [`Frame`] once per strip
 //! and row of the strip's three-row stencil.
 //!
-//! Per pixel: Sobel gradients (|g| <= 1020), their products (`i32`) summed over a 3x3 box as
-//! three column sums and a sliding sum of three columns (the same integers as a direct 3x3 sum),
+//! Per pixel: Sobel gradients (|g| <= 1020), their products (`i32`, a row of each product
+//! apart, which the host's compiler vectorises) summed over a 3x3 box as a column's sum down
+//! three rows and a sliding sum of three columns (the same integers as a direct 3x3 sum),
 //! the response `det - k trace^2` with k = 5/128 in `i64`, stored shifted right by
 //! `RESPONSE_SHIFT` as `i32`. A corner is a 3x3 local maximum at or above the configured
 //! threshold; a parabola through its neighbours' responses gives its sub-pixel position, which
@@ -126,9 +127,7 @@ pub struct HarrisScratch {
     /// beyond a short row's end.
     pixels: [[u8; STRIP + 6]; 3],
     /// Gradient products (gx gx, gy gy, gx gy) of three rows, strip columns plus two each side.
-    prod: [[[i32; 3]; STRIP + 4]; 3],
-    /// The products summed down the three rows, per column.
-    cols: [[i32; 3]; STRIP + 4],
+    prod: [[[i32; STRIP + 4]; 3]; 3],
     /// Responses of three rows, strip columns plus one each side.
     resp: [[i32; STRIP + 2]; 3],
 }
@@ -138,8 +137,7 @@ impl HarrisScratch {
     pub const fn new() -> Self {
         Self {
             pixels: [[0; STRIP + 6]; 3],
-            prod: [[[0; 3]; STRIP + 4]; 3],
-            cols: [[0; 3]; STRIP + 4],
+            prod: [[[0; STRIP + 4]; 3]; 3],
             resp: [[0; STRIP + 2]; 3],
         }
     }
@@ -243,16 +241,23 @@ fn strip<F: Frame + ?Sized, const K: usize>(
             tail.fill(0);
         }
         let [above, here, below] = &scratch.pixels;
-        let slot = &mut scratch.prod[usize::from(yg) % 3];
-        let stencil = above.windows(3).zip(here.windows(3)).zip(below.windows(3));
-        for (p, ((a, h), b)) in slot.iter_mut().zip(stencil).take(ncols + 4) {
-            let (&[a0, a1, a2], &[h0, _, h2], &[b0, b1, b2]) = (a, h, b) else {
-                continue;
-            };
-            let [a0, a1, a2, h0, h2, b0, b1, b2] = [a0, a1, a2, h0, h2, b0, b1, b2].map(i32::from);
-            let gx = a2 + 2 * h2 + b2 - a0 - 2 * h0 - b0;
-            let gy = b0 + 2 * b1 + b2 - a0 - 2 * a1 - a2;
-            *p = [gx * gx, gy * gy, gx * gy];
+        let [xx, yy, xy] = &mut scratch.prod[usize::from(yg) % 3];
+        // Column i's stencil is pixels i..i+3 of each row: every index is bounded by the
+        // arrays', so the compiler drops the checks and vectorises the loop.
+        let products = xx.iter_mut().zip(yy.iter_mut()).zip(xy.iter_mut());
+        for (i, ((xx, yy), xy)) in products.enumerate().take(ncols + 4) {
+            let px = |row: &[u8; STRIP + 6], k: usize| i32::from(row[i + k]);
+            let gx = px(above, 2) + 2 * px(here, 2) + px(below, 2)
+                - px(above, 0)
+                - 2 * px(here, 0)
+                - px(below, 0);
+            let gy = px(below, 0) + 2 * px(below, 1) + px(below, 2)
+                - px(above, 0)
+                - 2 * px(above, 1)
+                - px(above, 2);
+            *xx = gx * gx;
+            *yy = gy * gy;
+            *xy = gx * gy;
         }
         if yg < top {
             continue;
@@ -260,24 +265,24 @@ fn strip<F: Frame + ?Sized, const K: usize>(
         // Responses of row yr = yg - 1, columns x0-1 ..= x1+1: the ring holds rows yr-1..=yr+1,
         // and their order does not matter to a sum.
         let yr = yg - 1;
+        // Each column's products summed down the three rows once, three such columns summed
+        // across as the row is swept.
         let [p0, p1, p2] = &scratch.prod;
-        for (c, ((a, b), d)) in scratch.cols.iter_mut().zip(p0.iter().zip(p1).zip(p2)) {
-            *c = [a[0] + b[0] + d[0], a[1] + b[1] + d[1], a[2] + b[2] + d[2]];
-        }
+        let down =
+            |i: usize| -> [i32; 3] { core::array::from_fn(|ch| p0[ch][i] + p1[ch][i] + p2[ch][i]) };
         let resp = &mut scratch.resp[usize::from(yr) % 3];
-        for (r, w) in resp.iter_mut().zip(scratch.cols.windows(3)).take(ncols + 2) {
-            let &[c0, c1, c2] = w else {
-                continue;
-            };
-            let sxx = c0[0] + c1[0] + c2[0];
-            let syy = c0[1] + c1[1] + c2[1];
-            let sxy = c0[2] + c1[2] + c2[2];
+        let (mut left, mut middle) = (down(0), down(1));
+        for (i, r) in resp.iter_mut().enumerate().take(ncols + 2) {
+            let right = down(i + 2);
+            let [sxx, syy, sxy]: [i32; 3] =
+                core::array::from_fn(|ch| left[ch] + middle[ch] + right[ch]);
             // Sums reach 9 * 1020^2, the trace twice that: i32. Products widen to i64 (one
             // 32x32->64 multiply each on a Cortex-M).
             let trace = i64::from(sxx + syy);
             let det = i64::from(sxx) * i64::from(syy) - i64::from(sxy) * i64::from(sxy);
             let value = det - ((K_NUM * (trace * trace)) >> K_SHIFT);
             *r = (value >> RESPONSE_SHIFT).clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32;
+            (left, middle) = (middle, right);
         }
         if yr <= top {
             continue;
