@@ -55,12 +55,14 @@ pub struct Found {
 pub fn find<F: Frame + ?Sized>(frame: &F, patch: &Patch, u: u16, v: u16) -> Option<Found> {
     let (w, h) = (frame.width(), frame.height());
     let (mut cu, mut cv) = (u, v);
+    // The costs already known around the centre: a step keeps the six (or four) it shares.
+    let mut known = [None; 9];
     for _ in 0..=MAX_STEPS {
         let inside = |x: u16, n: u16| x > HALF && x + HALF + 1 < n;
         if !(inside(cu, w) && inside(cv, h)) {
             return None;
         }
-        let cost = costs(frame, patch, cu, cv);
+        let cost = costs(frame, patch, cu, cv, known);
         let (mut best, mut at) = (cost[4], 4);
         for (k, &c) in cost.iter().enumerate() {
             if c < best {
@@ -71,8 +73,15 @@ pub fn find<F: Frame + ?Sized>(frame: &F, patch: &Patch, u: u16, v: u16) -> Opti
             let (du, dv, _) = quadric_minimum(cost.map(|c| c as f32));
             return refine(frame, patch, f32::from(cu) + du, f32::from(cv) + dv);
         }
-        cu = (cu + (at % 3) as u16).checked_sub(1)?;
-        cv = (cv + (at / 3) as u16).checked_sub(1)?;
+        let (dx, dy) = (at % 3, at / 3);
+        known = core::array::from_fn(|k| {
+            let (x, y) = ((k % 3 + dx).checked_sub(1)?, (k / 3 + dy).checked_sub(1)?);
+            (x < 3 && y < 3)
+                .then(|| cost.get(3 * y + x).copied())
+                .flatten()
+        });
+        cu = (cu + dx as u16).checked_sub(1)?;
+        cv = (cv + dy as u16).checked_sub(1)?;
     }
     None
 }
@@ -191,9 +200,15 @@ fn sample<F: Frame + ?Sized>(frame: &F, u: f32, v: f32) -> Option<[f32; INNER * 
 }
 
 /// The costs of `patch` at the 3x3 pixels around (`u`, `v`), row by row: `AREA` times the
-/// zero-mean sum of squared differences, `AREA sum (a - b)^2 - (sum (a - b))^2` (under 2^36).
-/// The centre must be at least `HALF + 1` inside the frame.
-fn costs<F: Frame + ?Sized>(frame: &F, patch: &Patch, u: u16, v: u16) -> [i64; 9] {
+/// zero-mean sum of squared differences, `AREA sum (a - b)^2 - (sum (a - b))^2` (under 2^36);
+/// those `known` are taken as they are. The centre must be at least `HALF + 1` inside the frame.
+fn costs<F: Frame + ?Sized>(
+    frame: &F,
+    patch: &Patch,
+    u: u16,
+    v: u16,
+    known: [Option<i64>; 9],
+) -> [i64; 9] {
     let edge = HALF + 1;
     let mut window = [[0u8; WINDOW]; WINDOW];
     for (dy, out) in window.iter_mut().enumerate() {
@@ -203,6 +218,9 @@ fn costs<F: Frame + ?Sized>(frame: &F, patch: &Patch, u: u16, v: u16) -> [i64; 9
         out[..n].copy_from_slice(&src[..n]);
     }
     core::array::from_fn(|k| {
+        if let Some(Some(c)) = known.get(k) {
+            return *c;
+        }
         let (ox, oy) = (k % 3, k / 3);
         let (mut sum_d, mut sum_sq) = (0i32, 0i32);
         for (p_row, w_row) in patch.chunks_exact(SIDE).zip(&window[oy..oy + SIDE]) {
