@@ -3,6 +3,8 @@
 //! kept the strongest few per cell of a grid so that no one patch of the scene holds them all.
 
 use crate::frame::Frame;
+use core::num::NonZeroU16;
+use core::ops::RangeInclusive;
 
 /// A corner of the whole frame: its pixel and its FAST score.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -37,6 +39,51 @@ impl Grid {
     /// Corners it keeps at most.
     pub fn capacity(&self) -> usize {
         usize::from(self.columns) * usize::from(self.rows) * usize::from(self.per_cell)
+    }
+
+    /// The border [`detect`] keeps to with `border`: the ring must fit inside the frame.
+    fn inner_border(border: u16) -> u16 {
+        border.max(3)
+    }
+
+    /// A cell's width and height, pixels, on a `width x height` frame inside `border`, as
+    /// [`detect`] shares it out (in its own lines there, which the Cortex-M7's build of its
+    /// loops is the cheaper for); `None` where the frame has no inside.
+    fn cell_px(&self, width: u16, height: u16, border: u16) -> Option<(NonZeroU16, NonZeroU16)> {
+        let border = Self::inner_border(border);
+        let inner_w = NonZeroU16::new(width.checked_sub(border.saturating_mul(2))?)?;
+        let inner_h = NonZeroU16::new(height.checked_sub(border.saturating_mul(2))?)?;
+        let share = |n: NonZeroU16, cells: u16| {
+            n.div_ceil(NonZeroU16::new(cells).unwrap_or(NonZeroU16::MIN))
+        };
+        Some((share(inner_w, self.columns), share(inner_h, self.rows)))
+    }
+
+    /// The cells, as ranges of columns and rows, that hold every corner [`detect`] may find
+    /// with its column in `u_px` and its row in `v_px` (both closed, pixels) on a `width x
+    /// height` frame inside `border`; all of them where a bound is not a number. `None` where
+    /// the frame has no inside.
+    pub fn cells_within(
+        &self,
+        (width, height, border): (u16, u16, u16),
+        u_px: (f32, f32),
+        v_px: (f32, f32),
+    ) -> Option<(RangeInclusive<u16>, RangeInclusive<u16>)> {
+        let (cell_w, cell_h) = self.cell_px(width, height, border)?;
+        let border = Self::inner_border(border);
+        let all = (0..=self.columns.max(1) - 1, 0..=self.rows.max(1) - 1);
+        if !(u_px.0 <= u_px.1 && v_px.0 <= v_px.1) {
+            return Some(all);
+        }
+        // A pixel more each side: whichever way the caller's own test of the bounds rounds.
+        let cell = |(lo, hi): (f32, f32), size: NonZeroU16, last: u16| {
+            let at = |x: f32| ((x as u16).max(border) - border) / size;
+            at(lo - 1.0).min(last)..=at(hi + 1.0).min(last)
+        };
+        Some((
+            cell(u_px, cell_w, *all.0.end()),
+            cell(v_px, cell_h, *all.1.end()),
+        ))
     }
 }
 
@@ -109,7 +156,7 @@ fn detect_with<F: Frame + ?Sized>(
 ) {
     out.fill(None);
     let (w, h) = (frame.width(), frame.height());
-    let border = border.max(3);
+    let border = Grid::inner_border(border);
     if w <= 2 * border || h <= 2 * border || grid.capacity() == 0 || grid.capacity() > out.len() {
         return;
     }
@@ -384,6 +431,57 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn the_cells_of_a_rectangle_hold_every_corner_inside_it() {
+        let (w, h) = (101u16, 64u16);
+        let mut next = crate::test_rng::uniform(29);
+        let img: Vec<u8> = (0..usize::from(w) * usize::from(h))
+            .map(|k| {
+                (((k % 101) / 3 * 37 + (k / 101) / 3 * 91) % 256) as u8 ^ (next() * 64.0) as u8
+            })
+            .collect();
+        let frame = SliceFrame::new(&img, w, h, usize::from(w)).unwrap();
+        let grid = Grid {
+            columns: 7,
+            rows: 3,
+            per_cell: 5,
+        };
+        let mut out = vec![None; grid.capacity()];
+        detect(&frame, 20, grid, 8, &mut out);
+        let corners: Vec<(usize, ImageCorner)> = out
+            .iter()
+            .enumerate()
+            .filter_map(|(k, c)| c.map(|c| (k / usize::from(grid.per_cell), c)))
+            .collect();
+        assert!(corners.len() > 40, "{} corners", corners.len());
+        for _ in 0..500 {
+            // Rectangles of any size, partly or wholly off the frame, on fractional bounds.
+            let u0 = next() * 140.0 - 20.0;
+            let v0 = next() * 100.0 - 20.0;
+            let (u1, v1) = (u0 + next() * 40.0, v0 + next() * 30.0);
+            let (columns, rows) = grid.cells_within((w, h, 8), (u0, u1), (v0, v1)).unwrap();
+            for &(cell, c) in &corners {
+                let (u, v) = (f32::from(c.u), f32::from(c.v));
+                if (u0..=u1).contains(&u) && (v0..=v1).contains(&v) {
+                    let (col, row) = (cell % 7, cell / 7);
+                    assert!(
+                        columns.contains(&(col as u16)) && rows.contains(&(row as u16)),
+                        "{c:?} in cell ({col}, {row}), rectangle {u0} {u1} {v0} {v1}: {columns:?} {rows:?}"
+                    );
+                }
+            }
+        }
+        // A bound that is not a number: every cell. A frame without an inside: none.
+        assert_eq!(
+            grid.cells_within((w, h, 8), (f32::NAN, 10.0), (0.0, 10.0)),
+            Some((0..=6, 0..=2))
+        );
+        assert_eq!(
+            grid.cells_within((16, 16, 8), (0.0, 10.0), (0.0, 10.0)),
+            None
+        );
     }
 
     #[test]

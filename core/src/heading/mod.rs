@@ -167,7 +167,7 @@ impl<const K: usize> ImageHeading<K> {
             ..ImageMotion::default()
         };
         if let Some((prediction, ratio)) = prior {
-            out.matches = self.pair(frame, cfg, prediction, ratio) as u16;
+            out.matches = self.pair(frame, cfg, grid, prediction, ratio) as u16;
             if let Some(fit) = self.consensus(cfg, prediction) {
                 out.inliers = fit.inliers;
                 out.heading_change_rad =
@@ -251,11 +251,13 @@ impl<const K: usize> ImageHeading<K> {
         (p.u_px, p.v_px)
     }
 
-    /// Pairs the last frame's features with this frame's candidates; how many.
+    /// Pairs the last frame's features with this frame's candidates (found over `grid`); how
+    /// many.
     fn pair<F: Frame + ?Sized>(
         &mut self,
         frame: &F,
         cfg: &ValidConfig,
+        grid: Grid,
         prediction: Option<Motion>,
         ratio: f32,
     ) -> usize {
@@ -294,10 +296,27 @@ impl<const K: usize> ImageHeading<K> {
                     (Self::seen_at(cfg, x), NEW_REACH_PX)
                 }
             };
-            // The candidates within reach nearest the predicted place.
+            // The candidates within reach nearest the predicted place, from the cells that
+            // may hold them (in the order of the cells, as over all of them).
+            let Some((columns, rows)) = grid.cells_within(
+                (frame.width(), frame.height(), patch::MARGIN),
+                (centre.0 - reach.0, centre.0 + reach.0),
+                (centre.1 - reach.1, centre.1 + reach.1),
+            ) else {
+                continue;
+            };
+            let per_cell = usize::from(grid.per_cell);
+            let slots = rows.flat_map(|row| {
+                let cells = columns.clone().map(move |col| {
+                    usize::from(row) * usize::from(grid.columns) + usize::from(col)
+                });
+                cells.flat_map(move |cell| cell * per_cell..(cell + 1) * per_cell)
+            });
             let mut nearest: [Option<(f32, usize)>; TRIED] = [None; TRIED];
-            for (j, c) in candidates.iter().enumerate() {
-                let Some(c) = c else { continue };
+            for j in slots {
+                let Some(Some(c)) = candidates.get(j) else {
+                    continue;
+                };
                 let (du, dv) = (f32::from(c.u) - centre.0, f32::from(c.v) - centre.1);
                 if du.abs() > reach.0 || dv.abs() > reach.1 {
                     continue;
