@@ -405,7 +405,7 @@ impl<const K: usize> ImageHeading<K> {
             kernel_px: s.image_kernel_px,
             inlier_px: s.image_inlier_px,
         };
-        let (start, _) = consensus::vote(&self.model, &self.pairs, &search)?;
+        let (start, _) = consensus::vote::<K>(&self.model, &self.pairs, &search)?;
         let inlier = self.inlier.get_mut(..self.pairs.len()).unwrap_or_default();
         consensus::refine(
             &self.model,
