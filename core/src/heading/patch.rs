@@ -184,14 +184,26 @@ fn sample<F: Frame + ?Sized>(frame: &F, u: f32, v: f32) -> Option<[f32; INNER * 
     if iy + N + 1 > usize::from(frame.height()) || ix + N + 1 > usize::from(frame.width()) {
         return None;
     }
+    // The N + 1 pixels of a row the samples read; black where a row is short.
+    let span = |y: usize| {
+        let row = frame.row(y as u16);
+        let mut px = [0.0f32; N + 1];
+        for (p, &b) in px.iter_mut().zip(row.get(ix..).unwrap_or_default()) {
+            *p = f32::from(b);
+        }
+        px
+    };
     let mut out = [0.0f32; N * N];
-    let mut above = frame.row(iy as u16);
+    let mut above = span(iy);
     for (y, row_out) in out.chunks_exact_mut(N).enumerate() {
-        let below = frame.row((iy + y + 1) as u16);
-        for (x, o) in row_out.iter_mut().enumerate() {
-            let px = |r: &[u8], k: usize| f32::from(r.get(ix + x + k).copied().unwrap_or(0));
-            let top = px(above, 0) + fx * (px(above, 1) - px(above, 0));
-            let bottom = px(below, 0) + fx * (px(below, 1) - px(below, 0));
+        let below = span(iy + y + 1);
+        let (a, b) = (above.windows(2), below.windows(2));
+        for ((o, a), b) in row_out.iter_mut().zip(a).zip(b) {
+            let (&[a0, a1], &[b0, b1]) = (a, b) else {
+                continue;
+            };
+            let top = a0 + fx * (a1 - a0);
+            let bottom = b0 + fx * (b1 - b0);
             *o = top + fy * (bottom - top);
         }
         above = below;
