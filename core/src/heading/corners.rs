@@ -397,20 +397,25 @@ mod tests {
         out
     }
 
-    #[test]
-    fn the_pre_tests_drop_no_corner_of_the_segment_test() {
-        // A width whose tested run is no whole number of lanes: the last pixels are tested too.
-        let (w, h) = (101u16, 64u16);
-        let mut next = crate::test_rng::uniform(17);
-        // Blocks of random grey levels (corners where they meet) under pixel noise.
+    /// A `w x h` image (at most 104 x 64 pixels) of 4x4 blocks of random grey levels, corners
+    /// where they meet, under pixel noise; from `seed`.
+    fn blocks(w: u16, h: u16, seed: u32) -> Vec<u8> {
+        let mut next = crate::test_rng::uniform(seed);
         let blocks: Vec<u8> = (0..26 * 16).map(|_| (next() * 255.0) as u8).collect();
-        let img: Vec<u8> = (0..usize::from(w) * usize::from(h))
+        (0..usize::from(w) * usize::from(h))
             .map(|k| {
                 let (x, y) = (k % usize::from(w), k / usize::from(w));
                 let noise = (next() * 24.0) as u8;
                 blocks[(y / 4) * 26 + x / 4].saturating_add(noise)
             })
-            .collect();
+            .collect()
+    }
+
+    #[test]
+    fn the_pre_tests_drop_no_corner_of_the_segment_test() {
+        // A width whose tested run is no whole number of lanes: the last pixels are tested too.
+        let (w, h) = (101u16, 64u16);
+        let img = blocks(w, h, 17);
         let frame = SliceFrame::new(&img, w, h, usize::from(w)).unwrap();
         let grid = Grid {
             columns: 4,
@@ -436,13 +441,9 @@ mod tests {
     #[test]
     fn the_cells_of_a_rectangle_hold_every_corner_inside_it() {
         let (w, h) = (101u16, 64u16);
-        let mut next = crate::test_rng::uniform(29);
-        let img: Vec<u8> = (0..usize::from(w) * usize::from(h))
-            .map(|k| {
-                (((k % 101) / 3 * 37 + (k / 101) / 3 * 91) % 256) as u8 ^ (next() * 64.0) as u8
-            })
-            .collect();
+        let img = blocks(w, h, 29);
         let frame = SliceFrame::new(&img, w, h, usize::from(w)).unwrap();
+        let mut next = crate::test_rng::uniform(31);
         let grid = Grid {
             columns: 7,
             rows: 3,
