@@ -3,7 +3,7 @@
 
 use super::*;
 use roadvo::wire::config_words;
-use roadvo::{Camera, Config, Mount};
+use roadvo::{Camera, Config, Learned, Mount};
 
 /// Storage as a C program declares it.
 #[repr(C, align(8))]
@@ -265,12 +265,17 @@ fn every_status_has_a_text() {
 fn a_calibration_saved_is_restored_and_bad_bytes_are_refused() {
     let mut storage = Box::new(Storage([0; ROADVO_ODOMETER_SIZE]));
     let odo = new_odometer(&mut storage);
-    // A yaw learned over 200 m: 0.5 deg with a standard error of about 0.05 deg.
-    let learned = Calibration {
-        yaw_rad: 0.5f32.to_radians(),
-        yaw_spread_rad: 1.0f32.to_radians(),
+    // A yaw and a pitch learned over 200 m: 0.5 and -0.3 deg with standard errors of about
+    // 0.05 deg.
+    let angle = |deg: f32| Learned {
+        rad: deg.to_radians(),
+        spread_rad: 1.0f32.to_radians(),
         weight: 400.0,
         weight_sq: 1000.0,
+    };
+    let learned = Calibration {
+        yaw: angle(0.5),
+        pitch: angle(-0.3),
         distance_m: 200.0,
     };
     let saved = learned.to_bytes();
@@ -311,6 +316,11 @@ fn a_calibration_saved_is_restored_and_bad_bytes_are_refused() {
     let turned = unsafe { &*odo }.odometer.config().config().mount;
     assert_eq!(turned, core.config().config().mount);
     assert!(turned.yaw_rad > 0.4f32.to_radians(), "{turned:?}");
+    let file = kitti().mount;
+    assert!(
+        turned.pitch_rad < file.pitch_rad - 0.2f32.to_radians(),
+        "{turned:?}"
+    );
     // Bad bytes change nothing and say why.
     let mut corrupted = saved;
     corrupted[9] ^= 0x10;

@@ -1,31 +1,40 @@
-//! The mount as learned while driving: a correction to the configured mount's yaw, its spread
-//! and the road it rests on, in a small plain value that an ECU can keep in non-volatile memory
-//! ([`Calibration::to_bytes`], [`Calibration::from_bytes`]) and give back to the odometer
-//! after the next ignition ([`crate::Odometer::restore_calibration`]).
+//! The mount as learned while driving: corrections to the configured mount's yaw and pitch,
+//! their spreads and the road they rest on, in a small plain value that an ECU can keep in
+//! non-volatile memory ([`Calibration::to_bytes`], [`Calibration::from_bytes`]) and give back
+//! to the odometer after the next ignition ([`crate::Odometer::restore_calibration`]).
 //!
-//! A camera turned by a yaw error sees the road move off the arc's chord by the error times
-//! the distance, in every frame, straight or turning; the body's roll shakes it frame by frame
-//! but not on average. Each frame the ground's matched pairs measure that step across the chord
-//! ([`crate::method::pitch_vote`]); this module keeps their robust running mean, weighed by the
-//! distance each frame covers and forgetting over [`FORGET_M`] of road, so that it follows a
-//! camera refitted or knocked while the noise of single frames averages out. The odometer
-//! turns the mount by [`Calibration::applied_yaw_rad`] (the estimate held short by a standard
-//! error) whenever that has moved by [`APPLY_STEP_RAD`].
+//! - **Yaw.** A camera turned by a yaw error sees the road move off the arc's chord by the
+//!   error times the distance, in every frame, straight or turning; the body's roll shakes it
+//!   frame by frame but not on average. Each frame the ground's matched pairs measure that step
+//!   across the chord ([`crate::method::pitch_vote`]).
+//! - **Pitch.** The vehicle travels along the road, so over any stretch the direction of travel
+//!   lies in the road's plane; the body's pitching swings it about that plane frame by frame
+//!   but not on average. The whole image's motion holds that direction ([`crate::heading`]): a
+//!   camera pitched up by an error sees it below the horizontal of the mount file by the error.
+//!   Only frames whose inliers include points above the horizon measure it: on a scene of
+//!   nothing but road the direction trades against the pitch change and is biased.
+//!
+//! Each angle keeps its measurements' robust running mean ([`Learned`]), weighed by the
+//! distance each frame covers (times the pairs that tell a sideways step, for the yaw) and
+//! forgetting over [`FORGET_M`] of road, so that it follows a camera refitted or knocked while
+//! the noise of single frames averages out. The odometer turns the mount by
+//! [`Calibration::applied_yaw_rad`] and [`Calibration::applied_pitch_rad`] (each estimate held
+//! short by a standard error) whenever one has moved by [`APPLY_STEP_RAD`].
 
 /// Road over which the calibration forgets, metres: an estimate rests on about this much of
-/// the latest driving, enough to average a body's rolling out and to follow a change between
-/// ignitions within minutes.
+/// the latest driving, enough to average a body's rolling and pitching out and to follow a
+/// change between ignitions within minutes.
 pub const FORGET_M: f32 = 1000.0;
 
-/// Road driven before the calibration's yaw is applied, metres: until then the configured
-/// mount stands.
+/// Road driven before the calibration is applied, metres: until then the configured mount
+/// stands.
 pub const SETTLE_M: f32 = 10.0;
 
 /// Standard errors of the estimate it is held short of when applied.
 pub const APPLY_SDS: f32 = 1.0;
 
-/// The change of the learned yaw, radians, that turns the mount again (0.02 deg: a tenth of
-/// the error that costs 0.005 deg/m).
+/// The change of a learned angle, radians, that turns the mount again (0.02 deg: a tenth of
+/// the yaw error that costs 0.005 deg/m).
 pub const APPLY_STEP_RAD: f32 = 0.02 * core::f32::consts::PI / 180.0;
 
 /// A frame's measurement is taken at most this many spreads from the estimate (a vehicle
@@ -43,8 +52,16 @@ const WARM_FRAMES: f32 = 10.0;
 const MIN_SPREAD_RAD: f32 = 0.1 * core::f32::consts::PI / 180.0;
 
 /// Shortest frame that measures, metres: the step across the chord is the yaw error times the
-/// distance, lost in the matching's noise at a crawl.
+/// distance, lost in the matching's noise at a crawl, and the direction of travel of so short
+/// a step is the image's noise.
 pub const MIN_DISTANCE_M: f32 = 0.05;
+
+/// Fewest of the whole image's inliers seen above the horizon for a frame's direction of
+/// travel to measure the pitch: as many as the ground's regressions ask. On a scene of nothing
+/// but road (none above it) the direction is biased by the pitch change it trades against
+/// (the paper's s-course: 0.3 deg, a frame's spread 1.2 deg); KITTI and the town have 10 to 40
+/// (`docs/experiments.md`, "The mount while driving").
+pub const MIN_INLIERS_ABOVE_HORIZON: u16 = 8;
 
 /// One frame's sideways step, as the ground's matched pairs show it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -57,23 +74,108 @@ pub struct SidewaysStep {
     pub pairs: f32,
 }
 
-/// The mount learned while driving.
+/// One angle of the mount as learned: the robust running mean of the frames' measurements.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Calibration {
-    /// Added to the configured mount's yaw, radians, counter-clockwise seen from above: the
-    /// camera looks this much further left than the mount file says.
-    pub yaw_rad: f32,
+pub struct Learned {
+    /// Added to the configured mount's angle, radians.
+    pub rad: f32,
     /// The weighted spread of the frames' measurements about it, radians; 0 before a frame
     /// measured.
-    pub yaw_spread_rad: f32,
-    /// The sum of the frames' weights, forgetting included: each frame weighs its distance
-    /// times the pairs that tell its sideways step (metres).
+    pub spread_rad: f32,
+    /// The sum of the frames' weights, forgetting included (metres, times pairs for the yaw).
     pub weight: f32,
     /// The sum of the squares of the frames' weights, forgetting included (for the standard
     /// error: the frames' effective number is `weight^2 / weight_sq`).
     pub weight_sq: f32,
-    /// Road driven while it measured, metres, all of it.
+}
+
+impl Learned {
+    /// Nothing learned: the configured angle stands.
+    pub const NONE: Self = Self {
+        rad: 0.0,
+        spread_rad: 0.0,
+        weight: 0.0,
+        weight_sq: 0.0,
+    };
+
+    /// The estimate's standard error, radians; `None` before a frame measured.
+    pub fn sd_rad(&self) -> Option<f32> {
+        (self.weight > 0.0).then(|| self.spread_rad * libm::sqrtf(self.weight_sq) / self.weight)
+    }
+
+    /// The correction to turn the mount by, radians: none unless `settled`, then the estimate
+    /// less [`APPLY_SDS`] of its standard errors towards the mount file's (none where it is
+    /// within them), so that an estimate the road does not yet support leaves the mount as it
+    /// is, and a clear error is turned away at once.
+    fn applied_rad(&self, settled: bool) -> f32 {
+        let Some(sd) = self.sd_rad().filter(|_| settled) else {
+            return 0.0;
+        };
+        let margin = APPLY_SDS * sd;
+        if self.rad > margin {
+            self.rad - margin
+        } else if self.rad < -margin {
+            self.rad + margin
+        } else {
+            0.0
+        }
+    }
+
+    /// Takes one frame's measurement `rad`, weighing `w`, over `distance_m` of road (for the
+    /// forgetting). A frame shorter than [`MIN_DISTANCE_M`] or a measurement that is not
+    /// finite is left out.
+    fn take(&mut self, rad: f32, w: f32, distance_m: f32) {
+        let d = distance_m.abs();
+        let finite = d.is_finite() && rad.is_finite() && w.is_finite();
+        if !(finite && d >= MIN_DISTANCE_M && w > 0.0) {
+            return;
+        }
+        let keep = libm::expf(-d / FORGET_M);
+        self.weight = self.weight * keep + w;
+        self.weight_sq = self.weight_sq * keep * keep + w * w;
+        let share = w / self.weight;
+        let frames = self.weight * self.weight / self.weight_sq;
+        // Over the first frames the spread is not known yet: the assumed one bounds it below.
+        let spread = if frames < WARM_FRAMES {
+            self.spread_rad.max(START_SPREAD_RAD)
+        } else {
+            self.spread_rad
+        };
+        let bound = CLIP_SPREADS * spread;
+        // max then min rather than clamp: no panic path for a bound the compiler cannot order.
+        let r = (rad - self.rad).max(-bound).min(bound);
+        let max = Calibration::MAX_RAD;
+        self.rad = (self.rad + share * r).max(-max).min(max);
+        // The spread follows the clipped residuals, never collapsing on a few alike frames.
+        let var = (1.0 - share) * (spread * spread + share * r * r);
+        self.spread_rad = libm::sqrtf(var).max(MIN_SPREAD_RAD);
+    }
+
+    /// Whether every field is finite and in its range.
+    fn in_range(&self) -> bool {
+        let non_negative = [self.spread_rad, self.weight, self.weight_sq]
+            .iter()
+            .all(|v| v.is_finite() && *v >= 0.0);
+        non_negative && self.rad.is_finite() && self.rad.abs() <= Calibration::MAX_RAD
+    }
+
+    /// The fields in declaration order.
+    fn fields(&self) -> [f32; 4] {
+        [self.rad, self.spread_rad, self.weight, self.weight_sq]
+    }
+}
+
+/// The mount learned while driving.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Calibration {
+    /// The yaw, counter-clockwise seen from above: the camera looks `yaw.rad` further left
+    /// than the mount file says.
+    pub yaw: Learned,
+    /// The pitch, nose up: the camera looks `pitch.rad` further up than the mount file says.
+    pub pitch: Learned,
+    /// Road driven on the frames that measured, metres, all of it.
     pub distance_m: f32,
 }
 
@@ -99,7 +201,7 @@ pub enum CalibrationError {
 impl core::fmt::Display for CalibrationError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.write_str(match self {
-            Self::WrongLength => "a saved calibration is 28 bytes long",
+            Self::WrongLength => "a saved calibration is 44 bytes long",
             Self::WrongMagic => "not a saved roadvo calibration (or one of another version)",
             Self::Corrupted => "the saved calibration's checksum does not match",
             Self::OutOfRange => "a saved calibration value is not finite or out of range",
@@ -119,43 +221,30 @@ impl Default for Calibration {
 impl Calibration {
     /// Nothing learned: the configured mount stands.
     pub const NONE: Self = Self {
-        yaw_rad: 0.0,
-        yaw_spread_rad: 0.0,
-        weight: 0.0,
-        weight_sq: 0.0,
+        yaw: Learned::NONE,
+        pitch: Learned::NONE,
         distance_m: 0.0,
     };
 
-    /// Bytes of [`to_bytes`](Self::to_bytes): the magic, five `f32`, a checksum.
-    pub const BYTES: usize = 28;
+    /// Bytes of [`to_bytes`](Self::to_bytes): the magic, nine `f32`, a checksum.
+    pub const BYTES: usize = 44;
 
-    /// The first four bytes of a saved calibration (`rvc1`).
-    pub const MAGIC: [u8; 4] = *b"rvc1";
+    /// The first four bytes of a saved calibration (`rvc2`; `rvc1`, yaw alone, is refused).
+    pub const MAGIC: [u8; 4] = *b"rvc2";
 
-    /// Largest yaw correction, radians (10 deg): past it the mount file is wrong, not worn.
-    pub const MAX_YAW_RAD: f32 = 10.0 * core::f32::consts::PI / 180.0;
+    /// Largest correction of either angle, radians (10 deg): past it the mount file is wrong,
+    /// not worn.
+    pub const MAX_RAD: f32 = 10.0 * core::f32::consts::PI / 180.0;
 
-    /// The yaw correction's standard error, radians; `None` before a frame measured.
-    pub fn yaw_sd_rad(&self) -> Option<f32> {
-        (self.weight > 0.0).then(|| self.yaw_spread_rad * libm::sqrtf(self.weight_sq) / self.weight)
+    /// The yaw correction to turn the mount by, radians (see [`Learned`]): none before the
+    /// calibration is [`settled`](Self::settled).
+    pub fn applied_yaw_rad(&self) -> f32 {
+        self.yaw.applied_rad(self.settled())
     }
 
-    /// The yaw correction to turn the mount by, radians: none before it is
-    /// [`settled`](Self::settled), then the estimate less [`APPLY_SDS`] of its standard errors
-    /// towards the mount file's (none where it is within them), so that an estimate the road
-    /// does not yet support leaves the mount as it is, and a clear error is turned away at once.
-    pub fn applied_yaw_rad(&self) -> f32 {
-        let Some(sd) = self.yaw_sd_rad().filter(|_| self.settled()) else {
-            return 0.0;
-        };
-        let margin = APPLY_SDS * sd;
-        if self.yaw_rad > margin {
-            self.yaw_rad - margin
-        } else if self.yaw_rad < -margin {
-            self.yaw_rad + margin
-        } else {
-            0.0
-        }
+    /// The pitch correction to turn the mount by, radians, as [`applied_yaw_rad`](Self::applied_yaw_rad).
+    pub fn applied_pitch_rad(&self) -> f32 {
+        self.pitch.applied_rad(self.settled())
     }
 
     /// Whether it rests on enough road ([`SETTLE_M`]) to be applied.
@@ -163,74 +252,51 @@ impl Calibration {
         self.distance_m >= SETTLE_M
     }
 
-    /// Takes one frame's measurement, seen through the mount turned by `applied_yaw_rad`: the
-    /// vehicle's step across the chord, positive left, over `distance_m`. A frame shorter than
-    /// [`MIN_DISTANCE_M`] or a measurement that is not finite counts its road only.
-    pub fn measure(&mut self, step: SidewaysStep, distance_m: f32, applied_yaw_rad: f32) {
+    /// Counts `distance_m` of road driven on a frame that measured.
+    pub fn drive(&mut self, distance_m: f32) {
         let d = distance_m.abs();
-        if !d.is_finite() {
-            return;
+        if d.is_finite() {
+            self.distance_m += d;
         }
-        self.distance_m += d;
-        let yaw_rad = applied_yaw_rad - step.sideways_m / distance_m;
-        let w = d * step.pairs;
-        if d < MIN_DISTANCE_M || !yaw_rad.is_finite() || !(w > 0.0 && w.is_finite()) {
-            return;
-        }
-        let keep = libm::expf(-d / FORGET_M);
-        self.weight = self.weight * keep + w;
-        self.weight_sq = self.weight_sq * keep * keep + w * w;
-        let share = w / self.weight;
-        let frames = self.weight * self.weight / self.weight_sq;
-        // Over the first frames the spread is not known yet: the assumed one bounds it below.
-        let spread = if frames < WARM_FRAMES {
-            self.yaw_spread_rad.max(START_SPREAD_RAD)
-        } else {
-            self.yaw_spread_rad
-        };
-        let bound = CLIP_SPREADS * spread;
-        // max then min rather than clamp: no panic path for a bound the compiler cannot order.
-        let r = (yaw_rad - self.yaw_rad).max(-bound).min(bound);
-        self.yaw_rad = (self.yaw_rad + share * r).clamp(-Self::MAX_YAW_RAD, Self::MAX_YAW_RAD);
-        // The spread follows the clipped residuals, never collapsing on a few alike frames.
-        let var = (1.0 - share) * (spread * spread + share * r * r);
-        self.yaw_spread_rad = libm::sqrtf(var).max(MIN_SPREAD_RAD);
     }
 
-    /// Whether every field is finite and in its range: the yaw within
-    /// [`MAX_YAW_RAD`](Self::MAX_YAW_RAD), the spread, weights and distance not negative.
+    /// Takes one frame's sideways step, seen through the mount turned by `applied_yaw_rad`:
+    /// the vehicle's step across the chord, positive left, over `distance_m`.
+    pub fn measure_yaw(&mut self, step: SidewaysStep, distance_m: f32, applied_yaw_rad: f32) {
+        let yaw_rad = applied_yaw_rad - step.sideways_m / distance_m;
+        self.yaw
+            .take(yaw_rad, distance_m.abs() * step.pairs, distance_m);
+    }
+
+    /// Takes one frame's direction of travel, `elevation_rad` above the horizontal of the
+    /// mount turned by `applied_pitch_rad`, over `distance_m`.
+    pub fn measure_pitch(&mut self, elevation_rad: f32, distance_m: f32, applied_pitch_rad: f32) {
+        self.pitch.take(
+            applied_pitch_rad - elevation_rad,
+            distance_m.abs(),
+            distance_m,
+        );
+    }
+
+    /// Whether every field is finite and in its range: each angle within
+    /// [`MAX_RAD`](Self::MAX_RAD), the spreads, weights and distance not negative.
     pub fn check(&self) -> Result<(), CalibrationError> {
-        let finite_non_negative = [
-            self.yaw_spread_rad,
-            self.weight,
-            self.weight_sq,
-            self.distance_m,
-        ]
-        .iter()
-        .all(|v| v.is_finite() && *v >= 0.0);
-        if !finite_non_negative
-            || !self.yaw_rad.is_finite()
-            || self.yaw_rad.abs() > Self::MAX_YAW_RAD
-        {
+        let distance = self.distance_m.is_finite() && self.distance_m >= 0.0;
+        if !(distance && self.yaw.in_range() && self.pitch.in_range()) {
             return Err(CalibrationError::OutOfRange);
         }
         Ok(())
     }
 
-    /// The value as bytes for non-volatile memory: [`MAGIC`](Self::MAGIC), the five fields as
-    /// little-endian `f32` in declaration order, and a 32-bit checksum (FNV-1a) of the rest.
+    /// The value as bytes for non-volatile memory: [`MAGIC`](Self::MAGIC), the nine fields as
+    /// little-endian `f32` in declaration order (the yaw's four, the pitch's four, the
+    /// distance), and a 32-bit checksum (FNV-1a) of the rest.
     pub fn to_bytes(&self) -> [u8; Self::BYTES] {
-        let fields = [
-            self.yaw_rad,
-            self.yaw_spread_rad,
-            self.weight,
-            self.weight_sq,
-            self.distance_m,
-        ];
+        let fields = self.yaw.fields().into_iter().chain(self.pitch.fields());
         let mut out = [0u8; Self::BYTES];
         let head = Self::MAGIC
             .into_iter()
-            .chain(fields.into_iter().flat_map(f32::to_le_bytes));
+            .chain(fields.chain([self.distance_m]).flat_map(f32::to_le_bytes));
         for (slot, b) in out.iter_mut().zip(head) {
             *slot = b;
         }
@@ -262,13 +328,17 @@ impl Calibration {
             return Err(CalibrationError::Corrupted);
         }
         let mut f = body.chunks_exact(4).map(|c| f32::from_le_bytes(word(c)));
-        let mut next = || f.next().unwrap_or(f32::NAN);
+        let mut learned = || Learned {
+            rad: f.next().unwrap_or(f32::NAN),
+            spread_rad: f.next().unwrap_or(f32::NAN),
+            weight: f.next().unwrap_or(f32::NAN),
+            weight_sq: f.next().unwrap_or(f32::NAN),
+        };
+        let (yaw, pitch) = (learned(), learned());
         let c = Self {
-            yaw_rad: next(),
-            yaw_spread_rad: next(),
-            weight: next(),
-            weight_sq: next(),
-            distance_m: next(),
+            yaw,
+            pitch,
+            distance_m: f.next().unwrap_or(f32::NAN),
         };
         c.check()?;
         Ok(c)
@@ -306,16 +376,18 @@ mod tests {
         // of each 0.9 m, +-2 deg a frame.
         for _ in 0..1000 {
             let yaw = deg(1.0) + deg(4.0) * (next() - 0.5);
-            c.measure(step(yaw * 0.9), 0.9, 0.0);
+            c.drive(0.9);
+            c.measure_yaw(step(yaw * 0.9), 0.9, 0.0);
         }
-        let err = (c.yaw_rad + deg(1.0)).to_degrees();
+        let err = (c.yaw.rad + deg(1.0)).to_degrees();
         assert!(err.abs() < 0.1, "{c:?}");
         assert!(c.settled() && (c.distance_m - 900.0).abs() < 0.1, "{c:?}");
-        let sd = c.yaw_sd_rad().unwrap().to_degrees();
+        let sd = c.yaw.sd_rad().unwrap().to_degrees();
         assert!(sd > 0.02 && sd < 0.1, "{sd}");
-        let before = c.yaw_rad;
-        c.measure(step(deg(-30.0) * 0.9), 0.9, 0.0);
-        assert!((c.yaw_rad - before).abs() < deg(0.01), "{c:?}");
+        let before = c.yaw.rad;
+        c.measure_yaw(step(deg(-30.0) * 0.9), 0.9, 0.0);
+        assert!((c.yaw.rad - before).abs() < deg(0.01), "{c:?}");
+        assert_eq!(c.pitch, Learned::NONE);
     }
 
     #[test]
@@ -323,26 +395,58 @@ mod tests {
         // The mount already turned by -1 deg: a frame with no step across says -1 deg.
         let mut c = Calibration::NONE;
         for _ in 0..200 {
-            c.measure(step(0.0), 1.0, deg(-1.0));
+            c.measure_yaw(step(0.0), 1.0, deg(-1.0));
         }
-        assert!((c.yaw_rad - deg(-1.0)).abs() < deg(0.01), "{c:?}");
-        // Frames at a crawl count their road only.
-        let weight = c.weight;
-        c.measure(step(0.5), 0.01, 0.0);
-        assert_eq!(c.weight, weight);
-        assert!((c.distance_m - 200.01).abs() < 1e-3);
+        assert!((c.yaw.rad - deg(-1.0)).abs() < deg(0.01), "{c:?}");
+        // Frames at a crawl are left out.
+        let weight = c.yaw.weight;
+        c.measure_yaw(step(0.5), 0.01, 0.0);
+        assert_eq!(c.yaw.weight, weight);
+    }
+
+    #[test]
+    fn the_pitch_is_the_mount_s_less_the_direction_of_travel_s_elevation() {
+        // A mount file's pitch 1 deg too far down: the travel is seen 1 deg below the file's
+        // horizontal, +-0.5 deg a frame as the body pitches; half-way, the mount turned up by
+        // the estimate held short of it, which raises the elevation seen by as much.
+        let mut c = Calibration::NONE;
+        let mut next = crate::test_rng::uniform(7u32);
+        let mut applied = 0.0;
+        for k in 0..400 {
+            if k == 200 {
+                c.drive(200.0);
+                applied = c.applied_pitch_rad();
+                assert!(applied > deg(0.8) && applied < deg(1.0), "{c:?}");
+            }
+            let elevation = applied - deg(1.0) + deg(1.0) * (next() - 0.5);
+            c.measure_pitch(elevation, 0.8, applied);
+        }
+        assert!((c.pitch.rad - deg(1.0)).abs() < deg(0.05), "{c:?}");
+        assert!(c.pitch.sd_rad().unwrap() < deg(0.05), "{c:?}");
+        assert_eq!(c.yaw, Learned::NONE);
+        // Not settled (no road counted): nothing applied.
+        assert_eq!(
+            Calibration {
+                distance_m: 0.0,
+                ..c
+            }
+            .applied_pitch_rad(),
+            0.0
+        );
     }
 
     #[test]
     fn saved_bytes_come_back_and_damaged_ones_are_refused() {
         let mut c = Calibration::NONE;
         for k in 0..50 {
-            c.measure(step(0.01 * (k % 3) as f32), 0.8, 0.0);
+            c.drive(0.8);
+            c.measure_yaw(step(0.01 * (k % 3) as f32), 0.8, 0.0);
+            c.measure_pitch(deg(0.1) * (k % 5) as f32, 0.8, 0.0);
         }
         let bytes = c.to_bytes();
         assert_eq!(Calibration::from_bytes(&bytes), Ok(c));
         assert_eq!(
-            Calibration::from_bytes(&bytes[..27]),
+            Calibration::from_bytes(&bytes[..Calibration::BYTES - 1]),
             Err(CalibrationError::WrongLength)
         );
         let mut other = bytes;
@@ -363,10 +467,23 @@ mod tests {
         // Erased flash (all ones) is not a calibration.
         assert!(Calibration::from_bytes(&[0xff; Calibration::BYTES]).is_err());
         // Checksummed but out of range.
-        let wild = Calibration { yaw_rad: 1.0, ..c };
-        assert_eq!(
-            Calibration::from_bytes(&wild.to_bytes()),
-            Err(CalibrationError::OutOfRange)
-        );
+        for wild in [
+            Calibration {
+                yaw: Learned { rad: 1.0, ..c.yaw },
+                ..c
+            },
+            Calibration {
+                pitch: Learned {
+                    spread_rad: -1.0,
+                    ..c.pitch
+                },
+                ..c
+            },
+        ] {
+            assert_eq!(
+                Calibration::from_bytes(&wild.to_bytes()),
+                Err(CalibrationError::OutOfRange)
+            );
+        }
     }
 }

@@ -108,6 +108,20 @@ pub struct Estimate {
     pub quality: Quality,
 }
 
+/// A yaw and a pitch of the mount, radians.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Angles {
+    yaw: f32,
+    pitch: f32,
+}
+
+impl Angles {
+    const ZERO: Self = Self {
+        yaw: 0.0,
+        pitch: 0.0,
+    };
+}
+
 /// What carries from one frame to the next, whatever the method.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct State {
@@ -170,10 +184,11 @@ pub struct Odometer<
     estimator: Estimator<MAX_TRACKS, MAX_FEATURES, GRID, IMAGE_FEATURES>,
     /// The mount learned while driving, kept across [`reset`](Self::reset).
     calibration: Calibration,
-    /// The configured mount's yaw, radians: `config` holds it turned by `applied_yaw_rad`.
-    mount_yaw_rad: f32,
-    /// The calibration's yaw that `config`'s mount is turned by, radians.
-    applied_yaw_rad: f32,
+    /// The configured mount's yaw and pitch, radians: `config` holds them turned by
+    /// `applied_rad`.
+    mount_rad: Angles,
+    /// The calibration's yaw and pitch that `config`'s mount is turned by, radians.
+    applied_rad: Angles,
 }
 
 impl<
@@ -208,8 +223,8 @@ impl<
             harris: HarrisScratch::new(),
             estimator: Estimator::ZERO,
             calibration: Calibration::NONE,
-            mount_yaw_rad: 0.0,
-            applied_yaw_rad: 0.0,
+            mount_rad: Angles::ZERO,
+            applied_rad: Angles::ZERO,
         }
     };
 
@@ -238,8 +253,12 @@ impl<
                 field: "image_corners_per_cell",
             });
         }
-        self.mount_yaw_rad = config.config().mount.yaw_rad;
-        self.applied_yaw_rad = 0.0;
+        let mount = &config.config().mount;
+        self.mount_rad = Angles {
+            yaw: mount.yaw_rad,
+            pitch: mount.pitch_rad,
+        };
+        self.applied_rad = Angles::ZERO;
         self.calibration = Calibration::NONE;
         self.config = config;
         self.estimator.configure(&self.config);
@@ -414,12 +433,24 @@ impl<
         };
         self.state.last_interval = interval;
         self.state.last_timestamp = Some(timestamp);
-        // 12. Calibrate: a trusted frame's step across the chord feeds the learned yaw, which
-        // turns the mount once it has moved far enough.
-        let learn = trusted && self.config.settings().learn_yaw;
-        if let Some(step) = sideways.filter(|_| learn) {
-            let applied = self.applied_yaw_rad;
-            self.calibration.measure(step, motion.distance_m, applied);
+        // 12. Calibrate: a trusted frame's step across the chord feeds the learned yaw, the whole
+        // image's direction of travel on a frame that sees more than the road the learned
+        // pitch; they turn the mount once it has moved far enough.
+        let s = self.config.settings();
+        let step = sideways.filter(|_| trusted && s.learn_yaw);
+        let travel = image
+            .filter(|i| s.learn_pitch && i.heading_change_rad.is_some())
+            .filter(|i| i.inliers_above_horizon >= calibration::MIN_INLIERS_ABOVE_HORIZON);
+        if step.is_some() || travel.is_some() {
+            let (d, applied) = (motion.distance_m, self.applied_rad);
+            self.calibration.drive(d);
+            if let Some(step) = step {
+                self.calibration.measure_yaw(step, d, applied.yaw);
+            }
+            if let Some(i) = travel {
+                self.calibration
+                    .measure_pitch(i.elevation_rad, d, applied.pitch);
+            }
             self.apply_calibration();
         }
         Ok(Estimate {
@@ -429,20 +460,27 @@ impl<
         })
     }
 
-    /// Turns the configured mount by the calibration's applied yaw where that has moved by
-    /// [`calibration::APPLY_STEP_RAD`] from the yaw in use; a turned mount that does not
-    /// validate leaves the one in use.
+    /// Turns the configured mount by the calibration's applied yaw and pitch where either has
+    /// moved by [`calibration::APPLY_STEP_RAD`] from the one in use; a turned mount that does
+    /// not validate leaves the one in use.
     fn apply_calibration(&mut self) {
-        let yaw_rad = self.calibration.applied_yaw_rad();
-        if (yaw_rad - self.applied_yaw_rad).abs() < calibration::APPLY_STEP_RAD {
+        let c = &self.calibration;
+        let applied = Angles {
+            yaw: c.applied_yaw_rad(),
+            pitch: c.applied_pitch_rad(),
+        };
+        let moved = |a: f32, b: f32| (a - b).abs() >= calibration::APPLY_STEP_RAD;
+        let (now, m) = (self.applied_rad, self.mount_rad);
+        if !moved(applied.yaw, now.yaw) && !moved(applied.pitch, now.pitch) {
             return;
         }
         let mut config = *self.config.config();
-        config.mount.yaw_rad = self.mount_yaw_rad + yaw_rad;
+        config.mount.yaw_rad = m.yaw + applied.yaw;
+        config.mount.pitch_rad = m.pitch + applied.pitch;
         if let Ok(turned) = config.validate() {
             self.config = turned;
             self.estimator.remount(&self.config);
-            self.applied_yaw_rad = yaw_rad;
+            self.applied_rad = applied;
         }
     }
 
@@ -520,6 +558,7 @@ impl<
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::calibration::Learned;
     use crate::config::tests::kitti_config;
     use crate::frame::SliceFrame;
     use std::vec;
@@ -592,11 +631,15 @@ mod tests {
 
     #[test]
     fn a_calibration_is_refused_unconfigured_or_out_of_range_and_taken_otherwise() {
-        let learned = Calibration {
-            yaw_rad: 0.5f32.to_radians(),
-            yaw_spread_rad: 0.01,
+        let angle = |deg: f32| Learned {
+            rad: deg.to_radians(),
+            spread_rad: 0.01,
             weight: 100.0,
             weight_sq: 10.0,
+        };
+        let learned = Calibration {
+            yaw: angle(0.5),
+            pitch: angle(-0.7),
             distance_m: 100.0,
         };
         let mut odo: Odometer = Odometer::UNCONFIGURED;
@@ -608,7 +651,10 @@ mod tests {
         let cfg = kitti_config().validate().unwrap();
         odo.configure(cfg).unwrap();
         let nan = Calibration {
-            weight: f32::NAN,
+            pitch: Learned {
+                weight: f32::NAN,
+                ..learned.pitch
+            },
             ..learned
         };
         assert_eq!(
@@ -618,13 +664,16 @@ mod tests {
         assert_eq!(*odo.calibration(), Calibration::NONE);
         assert_eq!(odo.restore_calibration(learned), Ok(()));
         assert_eq!(*odo.calibration(), learned);
-        // The mount turned by the estimate held short by a standard error.
-        let turned = odo.config().config().mount.yaw_rad - cfg.config().mount.yaw_rad;
+        // The mount turned by the estimates held short by a standard error.
+        let (now, file) = (&odo.config().config().mount, &cfg.config().mount);
+        let turned = (now.yaw_rad - file.yaw_rad, now.pitch_rad - file.pitch_rad);
+        let applied = (learned.applied_yaw_rad(), learned.applied_pitch_rad());
         assert!(
-            (turned - learned.applied_yaw_rad()).abs() < 1e-6,
-            "{turned}"
+            (turned.0 - applied.0).abs() < 1e-6 && (turned.1 - applied.1).abs() < 1e-6,
+            "{turned:?}"
         );
-        assert!(turned > 0.4f32.to_radians(), "{turned}");
+        assert!(turned.0 > 0.4f32.to_radians(), "{turned:?}");
+        assert!(turned.1 < -0.6f32.to_radians(), "{turned:?}");
     }
 
     #[test]

@@ -199,8 +199,9 @@ fn replay(odometer: &mut Odometer) -> Result<(), Error> {
     // What an ECU would keep in non-volatile memory for the next ignition.
     let c = odometer.calibration();
     defmt::println!(
-        "learned mount: yaw {=f32} rad from the mount file's over {=f32} m; saved as {=[u8]:x}",
-        c.yaw_rad,
+        "learned mount: yaw {=f32} rad, pitch {=f32} rad from the mount file's over {=f32} m; saved as {=[u8]:x}",
+        c.yaw.rad,
+        c.pitch.rad,
         c.distance_m,
         c.to_bytes()[..]
     );

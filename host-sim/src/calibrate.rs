@@ -128,6 +128,7 @@ fn cost(
             moved.mount.height_m += mm * 1e-3;
             // The mount as given: the reference the online calibration is compared with.
             moved.settings.learn_yaw = false;
+            moved.settings.learn_pitch = false;
             let Ok(config) = config_for(seq, &moved, method) else {
                 return Ok(f64::INFINITY);
             };

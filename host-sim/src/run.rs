@@ -13,8 +13,8 @@ use anyhow::{Context, Result, anyhow, bail};
 use image::GrayImage;
 use roadvo::wire::trace;
 use roadvo::{
-    Calibration, Camera, ConfigError, Estimate, Instant, Method, Odometer, SliceFrame, Smoother,
-    ValidConfig,
+    Calibration, Camera, ConfigError, Estimate, Instant, Method, Odometer, Pose2, SliceFrame,
+    Smoother, ValidConfig,
 };
 use serde::Serialize;
 use std::borrow::Cow;
@@ -79,7 +79,7 @@ impl Preloaded {
         })?
         .complete()?;
         while trajectory.flush().is_some() {}
-        Ok(trajectory.into_poses())
+        Ok(trajectory.into_poses(&config))
     }
 }
 
@@ -238,12 +238,12 @@ pub fn config_error(e: ConfigError) -> anyhow::Error {
 }
 
 /// The camera-0 trajectory of a run: each estimate through the configuration's heading
-/// smoother (`smooth_lag_frames`, pitch vote only), then lifted through the mount to a KITTI
-/// pose.
+/// smoother (`smooth_lag_frames`, pitch vote only), then, at the end, lifted through a mount to
+/// KITTI poses.
 pub struct Trajectory {
     smoother: Smoother<{ 2 * MAX_SMOOTH_LAG_FRAMES as usize + 1 }>,
-    config: ValidConfig,
-    poses: Vec<Pose>,
+    /// The vehicle's poses of the estimates handed back.
+    poses: Vec<Pose2>,
 }
 
 /// The longest `smooth_lag_frames` the host's smoother holds.
@@ -261,7 +261,6 @@ impl Trajectory {
             Smoother::new(lag).map_err(|e| anyhow!("mount file: smooth_lag_frames: {e}"))?;
         Ok(Self {
             smoother,
-            config,
             poses: Vec::with_capacity(frames),
         })
     }
@@ -286,16 +285,19 @@ impl Trajectory {
         Some(self.lift(e))
     }
 
-    /// The poses of the estimates handed back, in order (every frame's, once flushed).
-    pub fn into_poses(self) -> Vec<Pose> {
-        self.poses
+    /// The camera poses of the estimates handed back, in order (every frame's, once flushed),
+    /// through `config`'s mount: the one given, or the one the odometer learned by the end of
+    /// the drive (a camera's pose is its mount's, whichever frame it was learned on).
+    pub fn into_poses(self, config: &ValidConfig) -> Vec<Pose> {
+        let lift = config.lift();
+        let camera = |p: &Pose2| pose_of(&lift.camera_pose(p));
+        self.poses.iter().map(camera).collect()
     }
 
     /// Appends `e`'s pose; `e` with its frame number (the poses before it).
     fn lift(&mut self, e: Estimate) -> (usize, Estimate) {
         let frame = self.poses.len();
-        self.poses
-            .push(pose_of(&self.config.lift().camera_pose(&e.pose)));
+        self.poses.push(e.pose);
         (frame, e)
     }
 }
@@ -429,6 +431,8 @@ pub struct QualityLine {
     image_heading: bool,
     /// The learned correction of the mount's yaw after the frame, radians ([`Calibration`]).
     learned_yaw_rad: f32,
+    /// The learned correction of the mount's pitch after the frame, radians.
+    learned_pitch_rad: f32,
     /// The road it rests on, metres.
     learned_road_m: f32,
 }
@@ -461,7 +465,8 @@ impl QualityLine {
             image_matches: q.image_matches,
             image_inliers: q.image_inliers,
             image_heading: q.image_heading,
-            learned_yaw_rad: c.yaw_rad,
+            learned_yaw_rad: c.yaw.rad,
+            learned_pitch_rad: c.pitch.rad,
             learned_road_m: c.distance_m,
         }
     }
@@ -546,7 +551,10 @@ pub fn run(
     let mut estimates = Vec::with_capacity(source.len());
     let mut frames_run = Vec::with_capacity(source.len());
     let mut trajectory = Trajectory::new(config, source.len())?;
+    // The mount as the odometer has learned it (`learn_yaw`, `learn_pitch`) after the last frame.
+    let mut learned = config;
     let ran = run_frames_inspected(source, config, bad, |i, est, t, _, odo| {
+        learned = *odo.config();
         frames_run.push(i);
         let smoothed = trajectory.push(est, t);
         if let Some(out) = quality_out.as_mut() {
@@ -581,7 +589,7 @@ pub fn run(
     Ok(RunOutput {
         estimates,
         smooth_lag_frames: trajectory.lag_frames(),
-        poses: fill_skipped(&trajectory.into_poses(), &frames_run),
+        poses: fill_skipped(&trajectory.into_poses(&learned), &frames_run),
         ran,
     })
 }

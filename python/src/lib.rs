@@ -147,9 +147,6 @@ pub struct PyOdometer {
     odometer: Box<roadvo::Odometer>,
     /// Estimates returned so far.
     estimates: usize,
-    /// The given mount's lift to camera poses: `roadvo run` writes the trajectory through the
-    /// mount file's mount, not through the one the calibration turns while driving.
-    lift: roadvo::CameraLift,
 }
 
 #[pymethods]
@@ -162,12 +159,10 @@ impl PyOdometer {
             .to_config()
             .validate()
             .map_err(|e| error(config_error(e)))?;
-        let lift = *config.lift();
         let odometer = roadvo::Odometer::new(config).map_err(|e| error(config_error(e)))?;
         Ok(Self {
             odometer: Box::new(odometer),
             estimates: 0,
-            lift,
         })
     }
 
@@ -223,11 +218,14 @@ impl PyOdometer {
         Ok(dict)
     }
 
-    /// The camera's KITTI pose after the last frame (12 numbers, the 3x4 `[R | t]` row-major):
-    /// the pose through the mount file's mount, as `roadvo run` writes it without a smoother.
+    /// The camera's KITTI pose after the last frame (12 numbers, the 3x4 `[R | t]` row-major)
+    /// through the mount as learned so far: as `roadvo run` writes it without a smoother, which
+    /// lifts every frame through the mount learned by the drive's end (the same where nothing
+    /// was learned: `learn_yaw` and `learn_pitch` off).
     #[getter]
     fn camera_pose<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        let pose = kitti::pose_of(&self.lift.camera_pose(&self.odometer.pose()));
+        let lift = self.odometer.config().lift();
+        let pose = kitti::pose_of(&lift.camera_pose(&self.odometer.pose()));
         pose.to_vec().into_pyarray(py)
     }
 

@@ -58,9 +58,9 @@ fn a_yaw_error_in_the_mount_file_is_learned_while_driving() {
     let kept = run_sequence(&seq, &fixed, Some(Method::PitchVote)).unwrap();
     let c = learned.ran.calibration;
     // The learned correction: -1 deg, to about its standard error (0.1 deg over this road).
-    let yaw_deg = c.yaw_rad.to_degrees();
+    let yaw_deg = c.yaw.rad.to_degrees();
     assert!((yaw_deg + 1.0).abs() < 0.25, "{c:?}");
-    assert!(c.yaw_sd_rad().unwrap().to_degrees() < 0.2, "{c:?}");
+    assert!(c.yaw.sd_rad().unwrap().to_degrees() < 0.2, "{c:?}");
     assert_eq!(kept.ran.calibration, Calibration::NONE);
     // The error turned the ground's heading by about 0.09 deg/m; learned, it is gone after the
     // first tens of metres.
@@ -91,8 +91,8 @@ fn a_calibration_kept_over_an_ignition_cycle_carries_on_where_it_stopped() {
     let (cold, _) = run_part(&seq, config, split..FRAMES, None);
     // The learned yaw ends where the drive in one piece ends it, within two of its standard
     // errors (0.1 deg each over this road: after the split the two saw other pairs).
-    let gap = (restored_cal.yaw_rad - whole_cal.yaw_rad).abs();
-    let sd = restored_cal.yaw_sd_rad().unwrap();
+    let gap = (restored_cal.yaw.rad - whole_cal.yaw.rad).abs();
+    let sd = restored_cal.yaw.sd_rad().unwrap();
     assert!(gap < 2.0 * sd, "{restored_cal:?} against {whole_cal:?}");
     // After the split, the heading changes are as good as the one piece's, to within what a
     // yaw one standard error apart turns (0.1 deg: about 0.008 deg a frame here): the cold

@@ -420,10 +420,11 @@ fn a_wide_lens_is_followed_as_well_as_a_pinhole_once_the_mount_file_holds_its_di
     assert!(left_out.1 < lens.1 - 0.01, "{say}");
 }
 
-/// The town drive's first `frames` (seed 1), `overlays` on top, run three times: with the
-/// image's heading on the true mount, and on a mount yawed and rolled by 1 deg (a calibration
-/// error) with the image's heading and with the ground window's alone.
-fn town(overlays: &[&str], frames: usize) -> [Drive; 3] {
+/// The town drive's first `frames` (seed 1), `overlays` on top, run five times: with the
+/// image's heading on the true mount; on a mount yawed and rolled by 1 deg (a calibration error)
+/// with the image's heading and with the ground window's alone; and on a mount pitched up by 1
+/// deg, with the pitch learned and with the mount file's kept.
+fn town(overlays: &[&str], frames: usize) -> [Drive; 5] {
     let miscalibrated = |image_heading: bool| -> Box<dyn Fn(&mut MountFile)> {
         Box::new(move |m: &mut MountFile| {
             m.mount.yaw_rad += 1f32.to_radians();
@@ -431,12 +432,20 @@ fn town(overlays: &[&str], frames: usize) -> [Drive; 3] {
             m.settings.image_heading = image_heading;
         })
     };
-    let runs: [Run; 3] = [
+    let pitched = |learn_pitch: bool| -> Box<dyn Fn(&mut MountFile)> {
+        Box::new(move |m: &mut MountFile| {
+            m.mount.pitch_rad += 1f32.to_radians();
+            m.settings.learn_pitch = learn_pitch;
+        })
+    };
+    let runs: [Run; 5] = [
         (Method::PitchVote, Box::new(|_| ())),
         (Method::PitchVote, miscalibrated(true)),
         (Method::PitchVote, miscalibrated(false)),
+        (Method::PitchVote, pitched(true)),
+        (Method::PitchVote, pitched(false)),
     ];
-    <[Drive; 3]>::try_from(drives_with("town", overlays, frames, &runs))
+    <[Drive; 5]>::try_from(drives_with("town", overlays, frames, &runs))
         .ok()
         .unwrap()
 }
@@ -456,7 +465,7 @@ fn assert_heading_within_bounds(d: &Drive, what: &str) {
 fn in_town_the_whole_image_holds_the_heading_whatever_the_mount() {
     // 120 frames: the first straight, the first left turn (20 m radius) and the next straight,
     // with a quarter of kitti-like's road texture.
-    let [exact, image, ground] = town(&[], 120);
+    let [exact, image, ground, ..] = town(&[], 120);
     assert_heading_within_bounds(&exact, "true mount");
     let stood = exact
         .run
@@ -499,4 +508,36 @@ fn a_car_crossing_ahead_moves_neither_heading_nor_distance() {
         );
     }
     assert!(image.report.end_drift_pct <= 3.0, "{:#?}", image.report);
+}
+
+/// The distance driven over frames `range` as estimated and as true, metres.
+fn distances(d: &Drive, range: std::ops::Range<usize>) -> (f64, f64) {
+    let estimated = range
+        .clone()
+        .map(|i| f64::from(d.run.estimates[i].motion.distance_m))
+        .sum();
+    (estimated, range.map(|i| true_step_m(&d.truth, i)).sum())
+}
+
+#[test]
+fn in_town_a_pitch_error_in_the_mount_file_is_learned_while_driving() {
+    // The mount file's pitch 1 deg up: the road's points seen farther than they are, the
+    // distances about 13 % long (frames 80-119: 1.131 of the truth, the true mount's 0.987).
+    // The whole image's direction of travel, 1 deg above the file's horizontal on average,
+    // turns the mount back within the first 60 m or so (learned -0.94 deg, 1.008).
+    let [exact, _, _, learned, kept] = town(&[], 120);
+    let c = learned.run.ran.calibration;
+    let pitch_deg = c.pitch.rad.to_degrees();
+    assert!((pitch_deg + 1.0).abs() < 0.25, "{c:?}");
+    assert_eq!(kept.run.ran.calibration.pitch, roadvo::Learned::NONE);
+    assert_eq!(exact.run.ran.calibration.applied_pitch_rad(), 0.0);
+    let ratio = |d: &Drive| {
+        let (est, truth) = distances(d, 80..120);
+        est / truth
+    };
+    let (l, k, e) = (ratio(&learned), ratio(&kept), ratio(&exact));
+    let say =
+        format!("distance over frames 80-119 / truth: learned {l:.3}, kept {k:.3}, exact {e:.3}");
+    assert!((l - e).abs() < 0.03, "{say}");
+    assert!((k - e).abs() > 3.0 * (l - e).abs(), "{say}");
 }

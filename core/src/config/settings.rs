@@ -210,5 +210,10 @@ settings! {
         /// that the ground's matched pairs show in every frame, averaged over the road, turns
         /// the configured mount ([`crate::calibration`]); false: the mount file's yaw stands.
         learn_yaw: bool = val(true) => "learn_yaw";
+        /// Pitch vote with `image_heading`: the mount's pitch learned while driving (true): the
+        /// whole image's direction of travel, on frames that see more than the road, averaged
+        /// over the road, turns the configured mount ([`crate::calibration`]); false: the mount
+        /// file's pitch stands.
+        learn_pitch: bool = val(true) => "learn_pitch";
     }
 }

@@ -93,6 +93,12 @@ impl Model {
         }
     }
 
+    /// Whether ray `x` (camera frame) points above the vehicle's horizontal: a point seen
+    /// along it is not on the road's plane.
+    pub fn above_horizon(&self, x: &Vector3<f32>) -> bool {
+        (self.m * x).z > 0.0
+    }
+
     /// The camera's rotation under motion `p`: a ray of the first frame turned into the
     /// second's (the whole motion of a point far away).
     pub fn rotation(&self, p: &Params) -> Matrix3<f32> {

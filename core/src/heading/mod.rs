@@ -91,6 +91,12 @@ pub struct ImageMotion {
     pub rms_px: f32,
     /// The heading change's standard deviation, radians (0 without a motion).
     pub heading_sd_rad: f32,
+    /// The direction of travel above the vehicle's horizontal as the mount sets it, radians
+    /// (0 without a motion): on average, the mount's pitch error ([`crate::calibration`]).
+    pub elevation_rad: f32,
+    /// Of the inliers, those seen above the horizon in the last frame: points off the road's
+    /// plane (0 without a motion).
+    pub inliers_above_horizon: u16,
 }
 
 /// A candidate's best previous feature: which, and how unlike (hundredths of a grey level).
@@ -175,10 +181,21 @@ impl<const K: usize> ImageHeading<K> {
                 out.pitch_change_rad = fit.params.pitch;
                 out.rms_px = fit.rms_px;
                 out.heading_sd_rad = fit.heading_sd_rad;
+                out.elevation_rad = fit.params.elevation;
+                out.inliers_above_horizon = self.above_horizon();
             }
         }
         self.keep_features(frame, grid);
         out
+    }
+
+    /// How many of the consensus's inliers the last frame saw above the horizon.
+    fn above_horizon(&self) -> u16 {
+        let inliers = self.pairs.iter().zip(&self.inlier).filter(|(_, k)| **k);
+        let above = inliers
+            .filter(|(c, _)| self.model.above_horizon(&c.x1))
+            .count();
+        u16::try_from(above).unwrap_or(u16::MAX)
     }
 
     /// This frame's features, for the next: every paired candidate (its track goes on), then

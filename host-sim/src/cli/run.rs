@@ -2,6 +2,7 @@
 
 use super::{SequenceArgs, bar};
 use anyhow::{Result, bail};
+use roadvo::Learned;
 use roadvo_sim::eval::evaluate;
 use roadvo_sim::interrupt;
 use roadvo_sim::kitti::{Pose, read_poses};
@@ -40,8 +41,9 @@ pub struct RunArgs {
     /// Without it a run stops at such a frame and writes what it has, as a partial result.
     #[arg(long)]
     skip_bad_frames: bool,
-    /// Write the mount as the odometer learned it while driving (`learn_yaw`): the mount file
-    /// with its yaw turned by the learned correction, the rest as given.
+    /// Write the mount as the odometer learned it while driving (`learn_yaw`, `learn_pitch`):
+    /// the mount file with its yaw and pitch turned by the learned corrections, the rest as
+    /// given.
     #[arg(long)]
     learned_mount: Option<PathBuf>,
 }
@@ -87,13 +89,15 @@ impl RunArgs {
         if let Some(p) = &self.learned_mount {
             let c = &output.ran.calibration;
             let mut learned = mount;
-            learned.mount.yaw_rad += c.yaw_rad;
+            learned.mount.yaw_rad += c.yaw.rad;
+            learned.mount.pitch_rad += c.pitch.rad;
             let note = format!(
-                "# Learned by `roadvo run` over {:.0} m of {}: yaw {:+.3} deg from the mount \
-                 file's.\n",
+                "# Learned by `roadvo run` over {:.0} m of {}: yaw {:+.3} deg, pitch {:+.3} \
+                 deg from the mount file's.\n",
                 c.distance_m,
                 self.seq.seq_dir.display(),
-                c.yaw_rad.to_degrees()
+                c.yaw.rad.to_degrees(),
+                c.pitch.rad.to_degrees()
             );
             // [camera] where the sequence has no calib.txt to give it (a video, a folder of
             // frames): the file must stand for it as the one given did.
@@ -185,11 +189,23 @@ fn print_summary(run: &RunOutput, out: &Path) {
         out.display()
     );
     let c = &run.ran.calibration;
-    if let Some(sd) = c.yaw_sd_rad() {
+    let angle = |name: &str, l: &Learned| {
+        l.sd_rad().map(|sd| {
+            format!(
+                "{name} {:+.3} deg (+-{:.3})",
+                l.rad.to_degrees(),
+                sd.to_degrees()
+            )
+        })
+    };
+    let learned: Vec<String> = [angle("yaw", &c.yaw), angle("pitch", &c.pitch)]
+        .into_iter()
+        .flatten()
+        .collect();
+    if !learned.is_empty() {
         println!(
-            "learned mount: yaw {:+.3} deg (+-{:.3}) from the mount file's, over {:.0} m of road",
-            c.yaw_rad.to_degrees(),
-            sd.to_degrees(),
+            "learned mount: {} from the mount file's, over {:.0} m of road",
+            learned.join(", "),
             c.distance_m
         );
     }
