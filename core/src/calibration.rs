@@ -242,7 +242,8 @@ impl Calibration {
         self.yaw.applied_rad(self.settled())
     }
 
-    /// The pitch correction to turn the mount by, radians, as [`applied_yaw_rad`](Self::applied_yaw_rad).
+    /// The pitch correction to turn the mount by, radians, as
+    /// [`applied_yaw_rad`](Self::applied_yaw_rad).
     pub fn applied_pitch_rad(&self) -> f32 {
         self.pitch.applied_rad(self.settled())
     }

@@ -70,16 +70,17 @@ impl Preloaded {
     }
 
     /// The camera-0 trajectory of a fresh odometer with `config` over the frames (KITTI poses
-    /// through the mount, smoothed as the configuration says).
+    /// through the mount as learned by the last frame, smoothed as the configuration says).
     pub fn poses(&self, config: ValidConfig) -> Result<Vec<Pose>> {
         let mut trajectory = Trajectory::new(config, self.len())?;
-        run_frames(self, config, BadFrames::Stop, |_, e, t, _| {
+        let ran = run_frames(self, config, BadFrames::Stop, |_, e, t, _| {
             trajectory.push(e, t);
             Ok(())
-        })?
-        .complete()?;
+        })?;
+        let learned = ran.config;
+        ran.complete()?;
         while trajectory.flush().is_some() {}
-        Ok(trajectory.into_poses(&config))
+        Ok(trajectory.into_poses(&learned))
     }
 }
 
@@ -137,6 +138,9 @@ pub struct Ran {
     pub stopped: Option<Skipped>,
     /// The mount the odometer learned, after the last frame run.
     pub calibration: Calibration,
+    /// The configuration in use after the last frame run: the one given, its mount turned by
+    /// the calibration.
+    pub config: ValidConfig,
 }
 
 impl Skipped {
@@ -186,6 +190,7 @@ pub fn run_frames_inspected(
         skipped: Vec::new(),
         stopped: None,
         calibration: Calibration::NONE,
+        config,
     };
     for i in 0..source.len() {
         if let Err(cause) = crate::interrupt::check() {
@@ -219,6 +224,7 @@ pub fn run_frames_inspected(
         }
     }
     ran.calibration = *odo.calibration();
+    ran.config = *odo.config();
     Ok(ran)
 }
 
@@ -551,10 +557,7 @@ pub fn run(
     let mut estimates = Vec::with_capacity(source.len());
     let mut frames_run = Vec::with_capacity(source.len());
     let mut trajectory = Trajectory::new(config, source.len())?;
-    // The mount as the odometer has learned it (`learn_yaw`, `learn_pitch`) after the last frame.
-    let mut learned = config;
     let ran = run_frames_inspected(source, config, bad, |i, est, t, _, odo| {
-        learned = *odo.config();
         frames_run.push(i);
         let smoothed = trajectory.push(est, t);
         if let Some(out) = quality_out.as_mut() {
@@ -589,7 +592,8 @@ pub fn run(
     Ok(RunOutput {
         estimates,
         smooth_lag_frames: trajectory.lag_frames(),
-        poses: fill_skipped(&trajectory.into_poses(&learned), &frames_run),
+        // Through the mount as the odometer learned it (`learn_yaw`, `learn_pitch`).
+        poses: fill_skipped(&trajectory.into_poses(&ran.config), &frames_run),
         ran,
     })
 }
