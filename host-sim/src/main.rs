@@ -7,5 +7,6 @@ use clap::Parser;
 
 fn main() -> anyhow::Result<()> {
     roadvo_sim::interrupt::file_size_limit_as_error();
+    roadvo_sim::interrupt::broken_pipe_ends_quietly();
     cli::Cli::parse().command.run()
 }

@@ -283,3 +283,32 @@ fn view_writes_a_picture_of_every_nth_frame_with_its_panel() {
     let tracks = picture.pixels().filter(|p| fates.contains(&p.0)).count();
     assert!(tracks > 100, "{tracks} pixels of tracks");
 }
+
+#[test]
+fn a_reader_that_stops_early_ends_the_command_quietly() {
+    // `roadvo eval ... | head -1`: the reader gone before the table is printed. The command
+    // ends as `cat` does (SIGPIPE), not in a panic of a print to the closed pipe.
+    use std::os::unix::process::ExitStatusExt;
+    use std::process::{Command, Stdio};
+    let dir = tempfile::tempdir().unwrap();
+    let poses = dir.path().join("poses.txt");
+    let lines: String = (0..300)
+        .map(|i| format!("1 0 0 0 0 1 0 0 0 0 1 {}\n", f64::from(i) * 0.8))
+        .collect();
+    std::fs::write(&poses, lines).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_roadvo"))
+        .args(["eval", poses.to_str().unwrap(), poses.to_str().unwrap()])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(
+        out.status.success() || out.status.signal() == Some(13),
+        "{:?}: {stderr}",
+        out.status
+    );
+}
