@@ -7,8 +7,9 @@
 //!    of a grid: the candidates.
 //! 2. **Matches**: each of the last frame's features looks for its 7x7 patch ([`patch`]) among
 //!    the candidates nearest where it should be (where its own image motion of the last frame
-//!    takes it, or for a new one where the predicted heading change turns it), to a fraction
-//!    of a pixel; a pair stands where each is the other's best.
+//!    takes it; for a new one, where the predicted motion takes the point of the road it would
+//!    be, or turns it if it is above the horizon), to a fraction of a pixel; a pair stands where
+//!    each is the other's best.
 //! 3. **Consensus** ([`consensus`]): a vote over heading change by pitch change, every pair
 //!    voting through its distance from the planar motion's epipolar constraint ([`epipolar`]),
 //!    then Gauss-Newton on the peak's inliers over heading, pitch and roll change and the
@@ -31,7 +32,7 @@ use crate::motion::Motion;
 use crate::projection::Pixel;
 use consensus::{Fit, Pair, Search};
 use corners::{Grid, ImageCorner};
-use epipolar::{Model, Params};
+use epipolar::Model;
 use heapless::Vec;
 use nalgebra::Vector3;
 use patch::Patch;
@@ -44,8 +45,9 @@ const PITCH_HALF_RAD: f32 = 0.6 * core::f32::consts::PI / 180.0;
 /// axis): its image motion changes little between two frames.
 const TRACKED_REACH_PX: f32 = 10.0;
 
-/// How far a feature new last frame is looked for around the place the predicted heading change
-/// turns it to, pixels (columns, rows): points a few metres away move tens of pixels a frame.
+/// How far a feature new last frame is looked for around its predicted place, pixels (columns,
+/// rows): anything standing on the road lies between the place a point at infinity would take
+/// and the road's, and points a few metres away move tens of pixels a frame.
 const NEW_REACH_PX: (f32, f32) = (48.0, 32.0);
 
 /// Least distance travelled the translation is given, metres: standing still, the constraint
@@ -279,11 +281,10 @@ impl<const K: usize> ImageHeading<K> {
         ratio: f32,
     ) -> usize {
         let s = cfg.settings();
-        // The camera's rotation under the predicted heading change alone (points far away).
-        let rotation = self.model.rotation(&Params {
-            alpha: prediction.map_or(0.0, |m| m.heading_change_rad),
-            ..Params::default()
-        });
+        // The predicted motion: a new feature is looked for where it takes the road's point
+        // the feature would be, or turns it if it is above the horizon.
+        let (alpha, distance_m) =
+            prediction.map_or((0.0, 0.0), |m| (m.heading_change_rad, m.distance_m));
         self.best = [[None; CANDIDATES_PER_FEATURE]; K];
         self.found = [None; K];
         let candidates = self.candidates.as_flattened();
@@ -306,7 +307,7 @@ impl<const K: usize> ImageHeading<K> {
                     let Some(ray) = Self::ray(cfg, pu, pv) else {
                         continue;
                     };
-                    let x = rotation * ray;
+                    let x = self.model.predicted(&ray, alpha, distance_m);
                     if x.z <= 0.0 {
                         continue;
                     }
