@@ -169,6 +169,12 @@ pub struct HeadingChangeErrors {
     pub mean_deg: f64,
 }
 
+/// The distance between the camera centres of frames `i - 1` and `i` of `gt`, metres.
+pub fn true_step_m(gt: &[Pose], i: usize) -> f64 {
+    let (a, b) = (&gt[i - 1], &gt[i]);
+    ((b[3] - a[3]).powi(2) + (b[7] - a[7]).powi(2) + (b[11] - a[11]).powi(2)).sqrt()
+}
+
 /// The true heading change into each frame `i >= 1`: the vehicle's turn about its own vertical,
 /// the ground truth's camera rotation from frame `i - 1` to `i` seen through
 /// `vehicle_from_camera` (the mount's rotation, body level), radians counter-clockwise.
@@ -531,6 +537,14 @@ mod tests {
 
     fn straight(n: usize, step: f64) -> Vec<Pose> {
         (0..n).map(|i| planar(i as f64 * step, 0.0, 0.0)).collect()
+    }
+
+    #[test]
+    fn a_true_step_is_the_distance_between_camera_centres() {
+        let gt = straight(3, 0.8);
+        assert!((true_step_m(&gt, 2) - 0.8).abs() < 1e-12);
+        let turned = [gt[0], planar(0.3, 0.4, 0.5)];
+        assert!((true_step_m(&turned, 1) - 0.5).abs() < 1e-12);
     }
 
     #[test]

@@ -4,7 +4,7 @@
 //! would keep.
 
 use roadvo::{Calibration, Estimate, Method, Odometer, SliceFrame, ValidConfig};
-use roadvo_sim::eval::{evaluate, heading_change_errors};
+use roadvo_sim::eval::{evaluate, heading_change_errors, true_step_m};
 use roadvo_sim::kitti::{Sequence, read_poses};
 use roadvo_sim::mount::MountFile;
 use roadvo_sim::run::{FrameSource, config_for, mount_for, run_sequence};
@@ -180,12 +180,7 @@ fn a_pitch_learned_in_town_kept_over_an_ignition_cycle_keeps_the_scale() {
     // distance a few per cent either way.
     let ratio = |e: &[Estimate]| {
         let est: f64 = e[1..].iter().map(|e| f64::from(e.motion.distance_m)).sum();
-        let true_m: f64 = (cut + 1..TOWN_FRAMES)
-            .map(|i| {
-                let (a, b) = (&truth[i - 1], &truth[i]);
-                ((b[3] - a[3]).powi(2) + (b[7] - a[7]).powi(2) + (b[11] - a[11]).powi(2)).sqrt()
-            })
-            .sum();
+        let true_m: f64 = (cut + 1..TOWN_FRAMES).map(|i| true_step_m(&truth, i)).sum();
         est / true_m
     };
     let (w, r, c) = (ratio(&whole), ratio(&restored), ratio(&cold));

@@ -5,7 +5,7 @@
 
 use roadvo::Method;
 use roadvo_sim::calibrate::HEIGHT_SPREAD_MM;
-use roadvo_sim::eval::{HeadingChangeErrors, Report, evaluate, heading_change_errors};
+use roadvo_sim::eval::{HeadingChangeErrors, Report, evaluate, heading_change_errors, true_step_m};
 use roadvo_sim::kitti::{Sequence, read_poses};
 use roadvo_sim::mount::MountFile;
 use roadvo_sim::run::{RunOutput, mount_for, run_sequence};
@@ -146,12 +146,6 @@ fn drives_with(scenario: &str, overlays: &[&str], frames: usize, runs: &[Run]) -
 
 fn drive(scenario: &str, overlays: &[&str], frames: usize, method: Method) -> Drive {
     drives(scenario, overlays, frames, &[method]).remove(0)
-}
-
-/// Distance between consecutive true camera positions, metres.
-fn true_step_m(truth: &[[f64; 12]], i: usize) -> f64 {
-    let (a, b) = (&truth[i - 1], &truth[i]);
-    ((b[3] - a[3]).powi(2) + (b[7] - a[7]).powi(2) + (b[11] - a[11]).powi(2)).sqrt()
 }
 
 #[test]
