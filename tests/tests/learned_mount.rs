@@ -3,7 +3,7 @@
 //! a pitch 1 deg off, and the calibration carried across an ignition cycle as the bytes an ECU
 //! would keep.
 
-use roadvo::{Calibration, Estimate, Method, Odometer, SliceFrame, ValidConfig};
+use roadvo::{Calibration, Estimate, Learned, Method, Odometer, SliceFrame, ValidConfig};
 use roadvo_sim::eval::{evaluate, heading_change_errors, true_step_m};
 use roadvo_sim::kitti::{Sequence, read_poses};
 use roadvo_sim::mount::MountFile;
@@ -84,6 +84,12 @@ fn split(seq: &Sequence, told: &MountFile, frames: usize, split: usize) -> Split
     }
 }
 
+/// Whether an angle learned after a restore ends where the drive in one piece ends it, within
+/// two of its standard errors (after the split the two saw other pairs).
+fn ends_alike(restored: &Learned, whole: &Learned) -> bool {
+    (restored.rad - whole.rad).abs() < 2.0 * restored.sd_rad().unwrap()
+}
+
 #[test]
 fn a_yaw_error_in_the_mount_file_is_learned_while_driving() {
     let dir = tempfile::tempdir().unwrap();
@@ -122,11 +128,12 @@ fn a_calibration_kept_over_an_ignition_cycle_carries_on_where_it_stopped() {
         restored: (restored, restored_cal),
         cold,
     } = split(&seq, &told, FRAMES, cut);
-    // The learned yaw ends where the drive in one piece ends it, within two of its standard
-    // errors (0.1 deg each over this road: after the split the two saw other pairs).
-    let gap = (restored_cal.yaw.rad - whole_cal.yaw.rad).abs();
-    let sd = restored_cal.yaw.sd_rad().unwrap();
-    assert!(gap < 2.0 * sd, "{restored_cal:?} against {whole_cal:?}");
+    // The learned yaw ends where the drive in one piece ends it (standard errors of 0.1 deg
+    // each over this road).
+    assert!(
+        ends_alike(&restored_cal.yaw, &whole_cal.yaw),
+        "{restored_cal:?} against {whole_cal:?}"
+    );
     // After the split, the heading changes are as good as the one piece's, to within what a
     // yaw one standard error apart turns (0.1 deg: about 0.008 deg a frame here): the cold
     // start, which has the whole error to learn again, turns the heading on average (the rms,
@@ -168,9 +175,10 @@ fn a_pitch_learned_in_town_kept_over_an_ignition_cycle_keeps_the_scale() {
         restored: (restored, restored_cal),
         cold,
     } = split(&seq, &told, TOWN_FRAMES, cut);
-    let gap = (restored_cal.pitch.rad - whole_cal.pitch.rad).abs();
-    let sd = restored_cal.pitch.sd_rad().unwrap();
-    assert!(gap < 2.0 * sd, "{restored_cal:?} against {whole_cal:?}");
+    assert!(
+        ends_alike(&restored_cal.pitch, &whole_cal.pitch),
+        "{restored_cal:?} against {whole_cal:?}"
+    );
     assert!(
         (whole_cal.pitch.rad.to_degrees() + 1.0).abs() < 0.25,
         "{whole_cal:?}"
