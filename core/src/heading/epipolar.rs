@@ -221,7 +221,7 @@ pub(crate) mod tests {
     proptest::proptest! {
         #[test]
         fn a_road_point_is_predicted_where_the_moved_camera_sees_it(
-            x in 3.0f32..60.0,
+            ahead in 3.0f32..60.0,
             y in -8.0f32..8.0,
             alpha in -0.06f32..0.06,
             d in 0.0f32..2.5,
@@ -236,6 +236,9 @@ pub(crate) mod tests {
                 alpha,
                 ..Params::default()
             };
+            // A point of the road ahead of the camera in both frames (one it passes over has
+            // no ray in an image).
+            let x = mount.x_m + d + ahead;
             let (x1, x2) = rays(&model, &motion, d, Vector3::new(x, y, 0.0));
             let got = model.predicted(&x1, alpha, d);
             let got = got / got.z;
