@@ -21,17 +21,17 @@
 
 #if defined(__arm__)
 // Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 32-bit Arm target.
-#define ROADVO_ODOMETER_SIZE 56800
+#define ROADVO_ODOMETER_SIZE 56816
 #endif
 
 #if defined(__x86_64__)
 // Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 64-bit host.
-#define ROADVO_ODOMETER_SIZE 56904
+#define ROADVO_ODOMETER_SIZE 56920
 #endif
 
 // Bytes of a saved calibration ([`roadvo_calibration_save`], [`roadvo_calibration_restore`]):
 // what a firmware keeps in non-volatile memory across ignition cycles.
-#define ROADVO_CALIBRATION_BYTES 44
+#define ROADVO_CALIBRATION_BYTES 60
 
 // Alignment of an odometer's storage, bytes.
 #define ROADVO_ODOMETER_ALIGN 8
@@ -95,7 +95,7 @@ typedef enum RoadvoStatus {
   // more than a frame outside the image, or the lens distortion does not invert over the
   // frame.
   ROADVO_STATUS_IMPLAUSIBLE_CAMERA = 24,
-  // The bytes given are not a saved calibration (they do not start with its magic `rvc2`).
+  // The bytes given are not a saved calibration (they do not start with its magic `rvc3`).
   ROADVO_STATUS_CALIBRATION_NOT_SAVED = 25,
   // A saved calibration's checksum does not match its fields: the memory that kept it was
   // corrupted.

@@ -274,7 +274,8 @@ fn a_calibration_saved_is_restored_and_bad_bytes_are_refused() {
         weight_sq: 1000.0,
     };
     let learned = Calibration {
-        yaw: angle(0.5),
+        yaw_ground: angle(0.5),
+        yaw_image: angle(0.5),
         pitch: angle(-0.3),
         distance_m: 200.0,
     };

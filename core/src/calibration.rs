@@ -6,7 +6,13 @@
 //! - **Yaw.** A camera turned by a yaw error sees the road move off the arc's chord by the
 //!   error times the distance, in every frame, straight or turning; the body's roll shakes it
 //!   frame by frame but not on average. Each frame the ground's matched pairs measure that step
-//!   across the chord ([`crate::method::pitch_vote`]).
+//!   across the chord ([`crate::method::pitch_vote`]). The whole image's motion holds the
+//!   direction of travel too ([`crate::heading`]): a camera turned left by an error sees it to
+//!   the right of the chord by the error, on frames that see more than the road (as for the
+//!   pitch). That needs no road plane: a mount rolled by a degree shifts the ground's pairs
+//!   sideways in the bends, which the ground's step reads as a yaw (a few tenths of a degree in
+//!   town) and the image's direction does not. The two estimates are weighed by their
+//!   variances ([`Calibration::yaw`]); where the image measures, its is the tighter.
 //! - **Pitch.** The vehicle travels along the road, so over any stretch the direction of travel
 //!   lies in the road's plane; the body's pitching swings it about that plane frame by frame
 //!   but not on average. The whole image's motion holds that direction ([`crate::heading`]): a
@@ -14,8 +20,8 @@
 //!   Only frames whose inliers include points above the horizon measure it: on a scene of
 //!   nothing but road the direction trades against the pitch change and is biased.
 //!
-//! Each angle keeps its measurements' robust running mean ([`Learned`]), weighed by the
-//! distance each frame covers (times the pairs that tell a sideways step, for the yaw) and
+//! Each estimate keeps its measurements' robust running mean ([`Learned`]), weighed by the
+//! distance each frame covers (times the pairs that tell a sideways step, for the ground's) and
 //! forgetting over [`FORGET_M`] of road, so that it follows a camera refitted or knocked while
 //! the noise of single frames averages out. The odometer turns the mount by
 //! [`Calibration::applied_yaw_rad`] and [`Calibration::applied_pitch_rad`] (each estimate held
@@ -104,22 +110,12 @@ impl Learned {
         (self.weight > 0.0).then(|| self.spread_rad * libm::sqrtf(self.weight_sq) / self.weight)
     }
 
-    /// The correction to turn the mount by, radians: none unless `settled`, then the estimate
-    /// less [`APPLY_SDS`] of its standard errors towards the mount file's (none where it is
-    /// within them), so that an estimate the road does not yet support leaves the mount as it
-    /// is, and a clear error is turned away at once.
-    fn applied_rad(&self, settled: bool) -> f32 {
-        let Some(sd) = self.sd_rad().filter(|_| settled) else {
-            return 0.0;
-        };
-        let margin = APPLY_SDS * sd;
-        if self.rad > margin {
-            self.rad - margin
-        } else if self.rad < -margin {
-            self.rad + margin
-        } else {
-            0.0
-        }
+    /// The estimate and its standard error; `None` before a frame measured.
+    pub fn estimate(&self) -> Option<AngleEstimate> {
+        self.sd_rad().map(|sd_rad| AngleEstimate {
+            rad: self.rad,
+            sd_rad,
+        })
     }
 
     /// Takes one frame's measurement `rad`, weighing `w`, over `distance_m` of road (for the
@@ -166,13 +162,43 @@ impl Learned {
     }
 }
 
-/// The mount learned while driving.
+/// One learned angle: its value and its standard error.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct AngleEstimate {
+    /// Added to the configured mount's angle, radians.
+    pub rad: f32,
+    /// Its standard error, radians.
+    pub sd_rad: f32,
+}
+
+/// The correction to turn the mount by, radians: none unless `settled`, then the estimate less
+/// [`APPLY_SDS`] of its standard errors towards the mount file's (none where it is within
+/// them), so that an estimate the road does not yet support leaves the mount as it is, and a
+/// clear error is turned away at once.
+fn held_short(estimate: Option<AngleEstimate>, settled: bool) -> f32 {
+    let Some(e) = estimate.filter(|_| settled) else {
+        return 0.0;
+    };
+    let margin = APPLY_SDS * e.sd_rad;
+    if e.rad > margin {
+        e.rad - margin
+    } else if e.rad < -margin {
+        e.rad + margin
+    } else {
+        0.0
+    }
+}
+
+/// The mount learned while driving: the yaw from two kinds of evidence, the pitch from one.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Calibration {
-    /// The yaw, counter-clockwise seen from above: the camera looks `yaw.rad` further left
-    /// than the mount file says.
-    pub yaw: Learned,
+    /// The yaw the ground's sideways step shows, counter-clockwise seen from above: the camera
+    /// looks `yaw_ground.rad` further left than the mount file says.
+    pub yaw_ground: Learned,
+    /// The yaw the whole image's direction of travel shows, as `yaw_ground`.
+    pub yaw_image: Learned,
     /// The pitch, nose up: the camera looks `pitch.rad` further up than the mount file says.
     pub pitch: Learned,
     /// Road driven on the frames that measured, metres, all of it.
@@ -201,7 +227,7 @@ pub enum CalibrationError {
 impl core::fmt::Display for CalibrationError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.write_str(match self {
-            Self::WrongLength => "a saved calibration is 44 bytes long",
+            Self::WrongLength => "a saved calibration is 60 bytes long",
             Self::WrongMagic => "not a saved roadvo calibration (or one of another version)",
             Self::Corrupted => "the saved calibration's checksum does not match",
             Self::OutOfRange => "a saved calibration value is not finite or out of range",
@@ -221,16 +247,18 @@ impl Default for Calibration {
 impl Calibration {
     /// Nothing learned: the configured mount stands.
     pub const NONE: Self = Self {
-        yaw: Learned::NONE,
+        yaw_ground: Learned::NONE,
+        yaw_image: Learned::NONE,
         pitch: Learned::NONE,
         distance_m: 0.0,
     };
 
-    /// Bytes of [`to_bytes`](Self::to_bytes): the magic, nine `f32`, a checksum.
-    pub const BYTES: usize = 44;
+    /// Bytes of [`to_bytes`](Self::to_bytes): the magic, thirteen `f32`, a checksum.
+    pub const BYTES: usize = 60;
 
-    /// The first four bytes of a saved calibration (`rvc2`; `rvc1`, yaw alone, is refused).
-    pub const MAGIC: [u8; 4] = *b"rvc2";
+    /// The first four bytes of a saved calibration (`rvc3`; `rvc1` and `rvc2`, without the
+    /// image's yaw, are refused: the odometer learns again within minutes).
+    pub const MAGIC: [u8; 4] = *b"rvc3";
 
     /// Largest correction of either angle, radians (10 deg): past it the mount file is wrong,
     /// not worn.
@@ -239,13 +267,35 @@ impl Calibration {
     /// The yaw correction to turn the mount by, radians (see [`Learned`]): none before the
     /// calibration is [`settled`](Self::settled).
     pub fn applied_yaw_rad(&self) -> f32 {
-        self.yaw.applied_rad(self.settled())
+        held_short(self.yaw(), self.settled())
+    }
+
+    /// The yaw learned, radians, and its standard error: the ground's and the image's
+    /// estimates weighed by their variances (where the image measured, its estimate is the
+    /// tighter and stands on evidence the road's plane does not bend); `None` before either
+    /// measured.
+    pub fn yaw(&self) -> Option<AngleEstimate> {
+        match (self.yaw_ground.estimate(), self.yaw_image.estimate()) {
+            (Some(a), Some(b)) => {
+                let (wa, wb) = (1.0 / (a.sd_rad * a.sd_rad), 1.0 / (b.sd_rad * b.sd_rad));
+                Some(AngleEstimate {
+                    rad: (wa * a.rad + wb * b.rad) / (wa + wb),
+                    sd_rad: 1.0 / libm::sqrtf(wa + wb),
+                })
+            }
+            (a, b) => a.or(b),
+        }
+    }
+
+    /// The pitch learned, radians, and its standard error; `None` before a frame measured.
+    pub fn pitch(&self) -> Option<AngleEstimate> {
+        self.pitch.estimate()
     }
 
     /// The pitch correction to turn the mount by, radians, as
     /// [`applied_yaw_rad`](Self::applied_yaw_rad).
     pub fn applied_pitch_rad(&self) -> f32 {
-        self.pitch.applied_rad(self.settled())
+        held_short(self.pitch(), self.settled())
     }
 
     /// Whether it rests on enough road ([`SETTLE_M`]) to be applied.
@@ -265,8 +315,16 @@ impl Calibration {
     /// the vehicle's step across the chord, positive left, over `distance_m`.
     pub fn measure_yaw(&mut self, step: SidewaysStep, distance_m: f32, applied_yaw_rad: f32) {
         let yaw_rad = applied_yaw_rad - step.sideways_m / distance_m;
-        self.yaw
+        self.yaw_ground
             .take(yaw_rad, distance_m.abs() * step.pairs, distance_m);
+    }
+
+    /// Takes one frame's direction of travel, `azimuth_rad` left of the arc's chord as the
+    /// mount turned by `applied_yaw_rad` sees it, over `distance_m`: a camera that looks
+    /// further left than its mount says sees the travel as far to the right.
+    pub fn measure_yaw_image(&mut self, azimuth_rad: f32, distance_m: f32, applied_yaw_rad: f32) {
+        self.yaw_image
+            .take(applied_yaw_rad - azimuth_rad, distance_m.abs(), distance_m);
     }
 
     /// Takes one frame's direction of travel, `elevation_rad` above the horizontal of the
@@ -283,17 +341,21 @@ impl Calibration {
     /// [`MAX_RAD`](Self::MAX_RAD), the spreads, weights and distance not negative.
     pub fn check(&self) -> Result<(), CalibrationError> {
         let distance = self.distance_m.is_finite() && self.distance_m >= 0.0;
-        if !(distance && self.yaw.in_range() && self.pitch.in_range()) {
+        let angles = [&self.yaw_ground, &self.yaw_image, &self.pitch];
+        if !(distance && angles.iter().all(|a| a.in_range())) {
             return Err(CalibrationError::OutOfRange);
         }
         Ok(())
     }
 
-    /// The value as bytes for non-volatile memory: [`MAGIC`](Self::MAGIC), the nine fields as
-    /// little-endian `f32` in declaration order (the yaw's four, the pitch's four, the
-    /// distance), and a 32-bit checksum (FNV-1a) of the rest.
+    /// The value as bytes for non-volatile memory: [`MAGIC`](Self::MAGIC), the thirteen fields
+    /// as little-endian `f32` in declaration order (the ground's yaw's four, the image's yaw's
+    /// four, the pitch's four, the distance), and a 32-bit checksum (FNV-1a) of the rest.
     pub fn to_bytes(&self) -> [u8; Self::BYTES] {
-        let fields = self.yaw.fields().into_iter().chain(self.pitch.fields());
+        let fields = self.yaw_ground.fields().into_iter();
+        let fields = fields
+            .chain(self.yaw_image.fields())
+            .chain(self.pitch.fields());
         let mut out = [0u8; Self::BYTES];
         let head = Self::MAGIC
             .into_iter()
@@ -335,9 +397,10 @@ impl Calibration {
             weight: f.next().unwrap_or(f32::NAN),
             weight_sq: f.next().unwrap_or(f32::NAN),
         };
-        let (yaw, pitch) = (learned(), learned());
+        let (yaw_ground, yaw_image, pitch) = (learned(), learned(), learned());
         let c = Self {
-            yaw,
+            yaw_ground,
+            yaw_image,
             pitch,
             distance_m: f.next().unwrap_or(f32::NAN),
         };
@@ -380,14 +443,14 @@ mod tests {
             c.drive(0.9);
             c.measure_yaw(step(yaw * 0.9), 0.9, 0.0);
         }
-        let err = (c.yaw.rad + deg(1.0)).to_degrees();
+        let err = (c.yaw_ground.rad + deg(1.0)).to_degrees();
         assert!(err.abs() < 0.1, "{c:?}");
         assert!(c.settled() && (c.distance_m - 900.0).abs() < 0.1, "{c:?}");
-        let sd = c.yaw.sd_rad().unwrap().to_degrees();
+        let sd = c.yaw_ground.sd_rad().unwrap().to_degrees();
         assert!(sd > 0.02 && sd < 0.1, "{sd}");
-        let before = c.yaw.rad;
+        let before = c.yaw_ground.rad;
         c.measure_yaw(step(deg(-30.0) * 0.9), 0.9, 0.0);
-        assert!((c.yaw.rad - before).abs() < deg(0.01), "{c:?}");
+        assert!((c.yaw_ground.rad - before).abs() < deg(0.01), "{c:?}");
         assert_eq!(c.pitch, Learned::NONE);
     }
 
@@ -398,11 +461,11 @@ mod tests {
         for _ in 0..200 {
             c.measure_yaw(step(0.0), 1.0, deg(-1.0));
         }
-        assert!((c.yaw.rad - deg(-1.0)).abs() < deg(0.01), "{c:?}");
+        assert!((c.yaw_ground.rad - deg(-1.0)).abs() < deg(0.01), "{c:?}");
         // Frames at a crawl are left out.
-        let weight = c.yaw.weight;
+        let weight = c.yaw_ground.weight;
         c.measure_yaw(step(0.5), 0.01, 0.0);
-        assert_eq!(c.yaw.weight, weight);
+        assert_eq!(c.yaw_ground.weight, weight);
     }
 
     #[test]
@@ -424,7 +487,7 @@ mod tests {
         }
         assert!((c.pitch.rad - deg(1.0)).abs() < deg(0.05), "{c:?}");
         assert!(c.pitch.sd_rad().unwrap() < deg(0.05), "{c:?}");
-        assert_eq!(c.yaw, Learned::NONE);
+        assert_eq!(c.yaw(), None);
         // Not settled (no road counted): nothing applied.
         assert_eq!(
             Calibration {
@@ -437,11 +500,63 @@ mod tests {
     }
 
     #[test]
+    fn the_image_s_yaw_is_the_mount_s_less_the_direction_of_travel_s_azimuth() {
+        // A camera looking 0.5 deg further left than its mount file says sees the travel 0.5
+        // deg right of the chord; through a mount already turned by +0.2 deg, 0.3 deg right.
+        let mut c = Calibration::NONE;
+        for k in 0..200 {
+            let applied = if k < 100 { 0.0 } else { deg(0.2) };
+            c.measure_yaw_image(applied - deg(0.5), 0.8, applied);
+        }
+        assert!((c.yaw_image.rad - deg(0.5)).abs() < deg(0.001), "{c:?}");
+        assert_eq!(c.yaw_ground, Learned::NONE);
+        assert_eq!(c.yaw().map(|e| e.rad), Some(c.yaw_image.rad));
+    }
+
+    #[test]
+    fn the_yaw_weighs_the_ground_s_and_the_image_s_by_their_variances() {
+        assert_eq!(Calibration::NONE.yaw(), None);
+        // The ground's steps say +0.5 deg, +-2 deg a frame; the image's direction of travel
+        // -0.3 deg, +-0.3 deg a frame: the image's estimate is the tighter and mostly stands.
+        let mut c = Calibration::NONE;
+        let mut next = crate::test_rng::uniform(11u32);
+        for _ in 0..400 {
+            c.drive(0.8);
+            let ground = deg(0.5) + deg(4.0) * (next() - 0.5);
+            c.measure_yaw(step(-ground * 0.8), 0.8, 0.0);
+            let image = deg(-0.3) + deg(0.6) * (next() - 0.5);
+            c.measure_yaw_image(-image, 0.8, 0.0);
+        }
+        let (g, i) = (
+            c.yaw_ground.estimate().unwrap(),
+            c.yaw_image.estimate().unwrap(),
+        );
+        let y = c.yaw().unwrap();
+        assert!((g.rad - deg(0.5)).abs() < 3.0 * g.sd_rad, "{g:?}");
+        assert!((i.rad - deg(-0.3)).abs() < 3.0 * i.sd_rad, "{i:?}");
+        assert!(
+            y.sd_rad < i.sd_rad && i.sd_rad < g.sd_rad,
+            "{y:?} {i:?} {g:?}"
+        );
+        // Between the two, nearer the image's by the ratio of their variances.
+        let share = (y.rad - i.rad) / (g.rad - i.rad);
+        let expected = i.sd_rad * i.sd_rad / (i.sd_rad * i.sd_rad + g.sd_rad * g.sd_rad);
+        assert!((share - expected).abs() < 1e-3, "{share} {expected}");
+        assert!(share > 0.0 && share < 0.2, "{share}");
+        // The applied yaw is the weighed estimate held short by its standard error.
+        assert!(
+            (c.applied_yaw_rad() - (y.rad + y.sd_rad)).abs() < 1e-6,
+            "{c:?}"
+        );
+    }
+
+    #[test]
     fn saved_bytes_come_back_and_damaged_ones_are_refused() {
         let mut c = Calibration::NONE;
         for k in 0..50 {
             c.drive(0.8);
             c.measure_yaw(step(0.01 * (k % 3) as f32), 0.8, 0.0);
+            c.measure_yaw_image(deg(0.2) * (k % 4) as f32, 0.8, 0.0);
             c.measure_pitch(deg(0.1) * (k % 5) as f32, 0.8, 0.0);
         }
         let bytes = c.to_bytes();
@@ -470,7 +585,10 @@ mod tests {
         // Checksummed but out of range.
         for wild in [
             Calibration {
-                yaw: Learned { rad: 1.0, ..c.yaw },
+                yaw_image: Learned {
+                    rad: 1.0,
+                    ..c.yaw_image
+                },
                 ..c
             },
             Calibration {

@@ -434,12 +434,12 @@ impl<
         self.state.last_interval = interval;
         self.state.last_timestamp = Some(timestamp);
         // 12. Calibrate: a trusted frame's step across the chord feeds the learned yaw, the whole
-        // image's direction of travel on a frame that sees more than the road the learned
-        // pitch; they turn the mount once it has moved far enough.
+        // image's direction of travel on a frame that sees more than the road the learned yaw
+        // and pitch; they turn the mount once it has moved far enough.
         let s = self.config.settings();
         let step = sideways.filter(|_| trusted && s.learn_yaw);
         let travel = image
-            .filter(|i| s.learn_pitch && i.heading_change_rad.is_some())
+            .filter(|i| (s.learn_pitch || s.learn_yaw) && i.heading_change_rad.is_some())
             .filter(|i| i.inliers_above_horizon >= calibration::MIN_INLIERS_ABOVE_HORIZON);
         if step.is_some() || travel.is_some() {
             let (d, applied) = (motion.distance_m, self.applied_rad);
@@ -448,8 +448,14 @@ impl<
                 self.calibration.measure_yaw(step, d, applied.yaw);
             }
             if let Some(i) = travel {
-                self.calibration
-                    .measure_pitch(i.elevation_rad, d, applied.pitch);
+                if s.learn_pitch {
+                    self.calibration
+                        .measure_pitch(i.elevation_rad, d, applied.pitch);
+                }
+                if s.learn_yaw {
+                    self.calibration
+                        .measure_yaw_image(i.azimuth_rad, d, applied.yaw);
+                }
             }
             self.apply_calibration();
         }
@@ -638,7 +644,8 @@ mod tests {
             weight_sq: 10.0,
         };
         let learned = Calibration {
-            yaw: angle(0.5),
+            yaw_ground: angle(0.4),
+            yaw_image: angle(0.5),
             pitch: angle(-0.7),
             distance_m: 100.0,
         };

@@ -200,8 +200,8 @@ fn replay(odometer: &mut Odometer) -> Result<(), Error> {
     let c = odometer.calibration();
     defmt::println!(
         "learned mount: yaw {=f32} rad, pitch {=f32} rad from the mount file's over {=f32} m; saved as {=[u8]:x}",
-        c.yaw.rad,
-        c.pitch.rad,
+        c.yaw().map_or(0.0, |e| e.rad),
+        c.pitch().map_or(0.0, |e| e.rad),
         c.distance_m,
         c.to_bytes()[..]
     );

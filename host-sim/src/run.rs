@@ -471,8 +471,8 @@ impl QualityLine {
             image_matches: q.image_matches,
             image_inliers: q.image_inliers,
             image_heading: q.image_heading,
-            learned_yaw_rad: c.yaw.rad,
-            learned_pitch_rad: c.pitch.rad,
+            learned_yaw_rad: c.yaw().map_or(0.0, |e| e.rad),
+            learned_pitch_rad: c.pitch().map_or(0.0, |e| e.rad),
             learned_road_m: c.distance_m,
         }
     }

@@ -207,8 +207,10 @@ settings! {
         image_max_heading_sd_rad: f32 = deg(0.05), above 0.0, max 10.0
             => "image_max_heading_sd_deg";
         /// Pitch vote: the mount's yaw learned while driving (true): the step across the chord
-        /// that the ground's matched pairs show in every frame, averaged over the road, turns
-        /// the configured mount ([`crate::calibration`]); false: the mount file's yaw stands.
+        /// that the ground's matched pairs show in every frame, and with `image_heading` the
+        /// whole image's direction of travel on frames that see more than the road, averaged
+        /// over the road, turn the configured mount ([`crate::calibration`]); false: the mount
+        /// file's yaw stands.
         learn_yaw: bool = val(true) => "learn_yaw";
         /// Pitch vote with `image_heading`: the mount's pitch learned while driving (true): the
         /// whole image's direction of travel, on frames that see more than the road, averaged

@@ -96,6 +96,9 @@ pub struct ImageMotion {
     /// The direction of travel above the vehicle's horizontal as the mount sets it, radians
     /// (0 without a motion): on average, the mount's pitch error ([`crate::calibration`]).
     pub elevation_rad: f32,
+    /// The direction of travel left of the arc's chord as the mount sets it, radians (0
+    /// without a motion): on average, the mount's yaw error ([`crate::calibration`]).
+    pub azimuth_rad: f32,
     /// Of the inliers, those seen above the horizon in the last frame: points off the road's
     /// plane (0 without a motion).
     pub inliers_above_horizon: u16,
@@ -184,6 +187,7 @@ impl<const K: usize> ImageHeading<K> {
                 out.rms_px = fit.rms_px;
                 out.heading_sd_rad = fit.heading_sd_rad;
                 out.elevation_rad = fit.params.elevation;
+                out.azimuth_rad = fit.params.azimuth;
                 out.inliers_above_horizon = self.above_horizon();
             }
         }

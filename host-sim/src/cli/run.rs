@@ -2,7 +2,7 @@
 
 use super::{SequenceArgs, bar};
 use anyhow::{Result, bail};
-use roadvo::Learned;
+use roadvo::AngleEstimate;
 use roadvo_sim::eval::evaluate;
 use roadvo_sim::interrupt;
 use roadvo_sim::kitti::{Pose, read_poses};
@@ -89,15 +89,16 @@ impl RunArgs {
         if let Some(p) = &self.learned_mount {
             let c = &output.ran.calibration;
             let mut learned = mount;
-            learned.mount.yaw_rad += c.yaw.rad;
-            learned.mount.pitch_rad += c.pitch.rad;
+            let rad = |e: Option<AngleEstimate>| e.map_or(0.0, |e| e.rad);
+            learned.mount.yaw_rad += rad(c.yaw());
+            learned.mount.pitch_rad += rad(c.pitch());
             let note = format!(
                 "# Learned by `roadvo run` over {:.0} m of {}: yaw {:+.3} deg, pitch {:+.3} \
                  deg from the mount file's.\n",
                 c.distance_m,
                 self.seq.seq_dir.display(),
-                c.yaw.rad.to_degrees(),
-                c.pitch.rad.to_degrees()
+                rad(c.yaw()).to_degrees(),
+                rad(c.pitch()).to_degrees()
             );
             // [camera] where the sequence has no calib.txt to give it (a video, a folder of
             // frames): the file must stand for it as the one given did.
@@ -189,16 +190,16 @@ fn print_summary(run: &RunOutput, out: &Path) {
         out.display()
     );
     let c = &run.ran.calibration;
-    let angle = |name: &str, l: &Learned| {
-        l.sd_rad().map(|sd| {
+    let angle = |name: &str, e: Option<AngleEstimate>| {
+        e.map(|e| {
             format!(
                 "{name} {:+.3} deg (+-{:.3})",
-                l.rad.to_degrees(),
-                sd.to_degrees()
+                e.rad.to_degrees(),
+                e.sd_rad.to_degrees()
             )
         })
     };
-    let learned: Vec<String> = [angle("yaw", &c.yaw), angle("pitch", &c.pitch)]
+    let learned: Vec<String> = [angle("yaw", c.yaw()), angle("pitch", c.pitch())]
         .into_iter()
         .flatten()
         .collect();
