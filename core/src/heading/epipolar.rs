@@ -103,19 +103,16 @@ impl Model {
         (self.m * x).z > 0.0
     }
 
-    /// Where ray `x` of the first frame is seen in the second after a heading change of
-    /// `alpha_rad` over `distance_m` (on the arc's chord): a ray below the horizon as the
-    /// point of the road's plane it meets, moved by the travel; any other turned alone.
-    pub fn predicted(&self, x: &Vector3<f32>, alpha_rad: f32, distance_m: f32) -> Vector3<f32> {
-        let q = rot_z(alpha_rad).transpose();
-        let g = self.m * x;
-        if g.z > -MIN_DEPRESSION {
-            return self.m.transpose() * (q * g);
-        }
+    /// The prediction of where rays of the first frame are seen in the second after a heading
+    /// change of `alpha_rad` over `distance_m` (on the arc's chord): the turn and the travel,
+    /// taken once for all of a frame's rays ([`Prediction::seen`]).
+    pub fn predict(&self, alpha_rad: f32, distance_m: f32) -> Prediction<'_> {
         let half = 0.5 * alpha_rad;
-        let travel = Vector3::new(libm::cosf(half), libm::sinf(half), 0.0) * distance_m;
-        let point = self.c + g * (self.c.z / -g.z);
-        self.m.transpose() * (q * (point - travel) - self.c)
+        Prediction {
+            model: self,
+            turn: rot_z(alpha_rad).transpose(),
+            travel: Vector3::new(libm::cosf(half), libm::sinf(half), 0.0) * distance_m,
+        }
     }
 
     /// The camera's rotation under motion `p`: a ray of the first frame turned into the
@@ -139,6 +136,31 @@ impl Model {
         let r = self.m.transpose() * qt * self.m;
         let t = self.m.transpose() * (qt * (self.c - travel) - self.c);
         t.cross_matrix() * r
+    }
+}
+
+/// A motion's prediction of where the first frame's rays are seen in the second
+/// ([`Model::predict`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Prediction<'a> {
+    model: &'a Model,
+    /// The heading change's turn of the vehicle frame, transposed.
+    turn: Matrix3<f32>,
+    /// The vehicle's travel along the arc's chord, metres.
+    travel: Vector3<f32>,
+}
+
+impl Prediction<'_> {
+    /// Where ray `x` is seen: a ray below the horizon as the point of the road's plane it
+    /// meets, moved by the travel; any other turned alone.
+    pub fn seen(&self, x: &Vector3<f32>) -> Vector3<f32> {
+        let Model { m, c } = self.model;
+        let g = m * x;
+        if g.z > -MIN_DEPRESSION {
+            return m.transpose() * (self.turn * g);
+        }
+        let point = c + g * (c.z / -g.z);
+        m.transpose() * (self.turn * (point - self.travel) - c)
     }
 }
 
@@ -240,7 +262,7 @@ pub(crate) mod tests {
             // no ray in an image).
             let x = mount.x_m + d + ahead;
             let (x1, x2) = rays(&model, &motion, d, Vector3::new(x, y, 0.0));
-            let got = model.predicted(&x1, alpha, d);
+            let got = model.predict(alpha, d).seen(&x1);
             let got = got / got.z;
             // Single precision's rounding: a thousandth of a pixel at KITTI's focal length
             // near the image's centre.
@@ -258,6 +280,6 @@ pub(crate) mod tests {
         };
         let (x1, _) = rays(&model, &motion, 1.0, Vector3::new(60.0, 5.0, 4.0));
         let turned = model.rotation(&motion) * x1;
-        assert_eq!(model.predicted(&x1, 0.03, 1.0), turned);
+        assert_eq!(model.predict(0.03, 1.0).seen(&x1), turned);
     }
 }

@@ -289,6 +289,7 @@ impl<const K: usize> ImageHeading<K> {
         // the feature would be, or turns it if it is above the horizon.
         let (alpha, distance_m) =
             prediction.map_or((0.0, 0.0), |m| (m.heading_change_rad, m.distance_m));
+        let predicted = self.model.predict(alpha, distance_m);
         self.best = [[None; CANDIDATES_PER_FEATURE]; K];
         self.found = [None; K];
         let candidates = self.candidates.as_flattened();
@@ -311,7 +312,7 @@ impl<const K: usize> ImageHeading<K> {
                     let Some(ray) = Self::ray(cfg, pu, pv) else {
                         continue;
                     };
-                    let x = self.model.predicted(&ray, alpha, distance_m);
+                    let x = predicted.seen(&ray);
                     if x.z <= 0.0 {
                         continue;
                     }
