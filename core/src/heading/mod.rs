@@ -26,6 +26,7 @@ pub mod corners;
 pub mod epipolar;
 pub mod patch;
 
+use crate::calibration::AngleEstimate;
 use crate::config::ValidConfig;
 use crate::frame::Frame;
 use crate::motion::Motion;
@@ -102,6 +103,16 @@ pub struct ImageMotion {
     /// Of the inliers, those seen above the horizon in the last frame: points off the road's
     /// plane (0 without a motion).
     pub inliers_above_horizon: u16,
+}
+
+impl ImageMotion {
+    /// The heading change with its standard deviation, where it stands.
+    pub fn heading(&self) -> Option<AngleEstimate> {
+        self.heading_change_rad.map(|rad| AngleEstimate {
+            rad,
+            sd_rad: self.heading_sd_rad,
+        })
+    }
 }
 
 /// A candidate's best previous feature: which, and how unlike (hundredths of a grey level).
