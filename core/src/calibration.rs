@@ -531,17 +531,11 @@ mod tests {
 
     #[test]
     fn an_estimate_without_spread_stands_alone() {
-        let exact = AngleEstimate {
-            rad: 0.1,
-            sd_rad: 0.0,
-        };
-        let loose = AngleEstimate {
-            rad: 0.3,
-            sd_rad: 0.01,
-        };
+        let estimate = |rad, sd_rad| AngleEstimate { rad, sd_rad };
+        let (exact, loose) = (estimate(0.1, 0.0), estimate(0.3, 0.01));
         assert_eq!(exact.weighed_with(loose), exact);
         assert_eq!(loose.weighed_with(exact), exact);
-        let half = loose.weighed_with(AngleEstimate { rad: 0.1, ..loose });
+        let half = loose.weighed_with(estimate(0.1, 0.01));
         assert!((half.rad - 0.2).abs() < 1e-6 && (half.sd_rad - 0.01 / 2f32.sqrt()).abs() < 1e-6);
     }
 

@@ -18,8 +18,9 @@
 //!    is filled up to its share with its strongest other candidates. A track lives as long as
 //!    its corner is found again, not only while it stays among its cell's strongest.
 //!
-//! The odometer takes the heading change where it stands, and the ground vote's distance given
-//! that heading.
+//! The odometer takes the heading change where it stands, weighed with the one the ground's
+//! matched pairs show by their variances ([`ImageMotion::heading`]), and the ground vote's
+//! distance given that heading.
 
 pub mod consensus;
 pub mod corners;

@@ -146,10 +146,10 @@ impl Matches {
         ))
     }
 
-    /// The vehicle's step across the chord common to every pair: the intercept of
-    /// [`across_line`](Self::across_line). A camera whose mount file's yaw is too far left by
-    /// `e` sees the vehicle step left of the chord by about `e` times the distance. `None` where
-    /// the line is.
+    /// The vehicle's step across the chord common to every pair: the intercept of the least
+    /// squares line of their residuals across the chord against their rate with the heading. A
+    /// camera whose mount file's yaw is too far left by `e` sees the vehicle step left of the
+    /// chord by about `e` times the distance. `None` where the line is.
     pub fn sideways_step(&self) -> Option<SidewaysStep> {
         let (sideways_m, _, det) = self.across_line()?;
         Some(SidewaysStep {
@@ -174,9 +174,9 @@ impl Matches {
     }
 
     /// The heading change the pairs' residuals across the chord show with the step across it
-    /// free (the slope of [`across_line`](Self::across_line) from `motion`'s heading, at which
-    /// they were matched), radians, and its standard deviation from the residuals' scatter about
-    /// the line. A car leaves the arc's chord by a degree or so (slip, the body's sway), which
+    /// free (the slope of the line of `sideways_step`, from `motion`'s heading, at which they
+    /// were matched), radians, and its standard deviation from the residuals' scatter about the
+    /// line. A car leaves the arc's chord by a degree or so (slip, the body's sway), which
     /// a heading fitted through the chord would take as a turn, and a standard deviation from
     /// that fit would not show. `None` where the line is.
     pub fn heading(&self, motion: Motion) -> Option<AngleEstimate> {
