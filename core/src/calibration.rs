@@ -172,28 +172,6 @@ pub struct AngleEstimate {
     pub sd_rad: f32,
 }
 
-impl AngleEstimate {
-    /// The two estimates of one angle weighed by the inverses of their variances: the
-    /// estimate of least variance from both, if their errors are independent. One with no
-    /// spread at all (or none that is a number) stands alone: it leaves nothing to weigh.
-    pub fn weighed_with(self, other: AngleEstimate) -> AngleEstimate {
-        if self.sd_rad.is_nan() || self.sd_rad <= 0.0 {
-            return self;
-        }
-        if other.sd_rad.is_nan() || other.sd_rad <= 0.0 {
-            return other;
-        }
-        let (wa, wb) = (
-            1.0 / (self.sd_rad * self.sd_rad),
-            1.0 / (other.sd_rad * other.sd_rad),
-        );
-        AngleEstimate {
-            rad: (wa * self.rad + wb * other.rad) / (wa + wb),
-            sd_rad: 1.0 / libm::sqrtf(wa + wb),
-        }
-    }
-}
-
 /// The correction to turn the mount by, radians: none unless `settled`, then the estimate less
 /// [`APPLY_SDS`] of its standard errors towards the mount file's (none where it is within
 /// them), so that an estimate the road does not yet support leaves the mount as it is, and a
@@ -298,7 +276,13 @@ impl Calibration {
     /// measured.
     pub fn yaw(&self) -> Option<AngleEstimate> {
         match (self.yaw_ground.estimate(), self.yaw_image.estimate()) {
-            (Some(a), Some(b)) => Some(a.weighed_with(b)),
+            (Some(a), Some(b)) => {
+                let (wa, wb) = (1.0 / (a.sd_rad * a.sd_rad), 1.0 / (b.sd_rad * b.sd_rad));
+                Some(AngleEstimate {
+                    rad: (wa * a.rad + wb * b.rad) / (wa + wb),
+                    sd_rad: 1.0 / libm::sqrtf(wa + wb),
+                })
+            }
             (a, b) => a.or(b),
         }
     }
@@ -527,16 +511,6 @@ mod tests {
         assert!((c.yaw_image.rad - deg(0.5)).abs() < deg(0.001), "{c:?}");
         assert_eq!(c.yaw_ground, Learned::NONE);
         assert_eq!(c.yaw().map(|e| e.rad), Some(c.yaw_image.rad));
-    }
-
-    #[test]
-    fn an_estimate_without_spread_stands_alone() {
-        let estimate = |rad, sd_rad| AngleEstimate { rad, sd_rad };
-        let (exact, loose) = (estimate(0.1, 0.0), estimate(0.3, 0.01));
-        assert_eq!(exact.weighed_with(loose), exact);
-        assert_eq!(loose.weighed_with(exact), exact);
-        let half = loose.weighed_with(estimate(0.1, 0.01));
-        assert!((half.rad - 0.2).abs() < 1e-6 && (half.sd_rad - 0.01 / 2f32.sqrt()).abs() < 1e-6);
     }
 
     #[test]

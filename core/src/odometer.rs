@@ -397,8 +397,7 @@ impl<
             voted.matched as f32 / detected as f32
         };
         // 9. Weigh a trusted vote against the prediction; fall back to steady state where too
-        // few features agree (paper §5). The whole image's heading, where it has one, stands,
-        // weighed with the one the ground's matched pairs show by their variances.
+        // few features agree (paper §5). The whole image's heading, where it has one, stands.
         let trusted = voted.motion.is_some()
             && quality.inlier_ratio >= self.config.settings().min_inlier_ratio;
         let ground = match (voted.motion, prediction) {
@@ -406,11 +405,7 @@ impl<
             (Some(m), None) if trusted => m,
             _ => prediction.unwrap_or(Motion::ZERO),
         };
-        let heading = match (image.and_then(|i| i.heading()), voted.ground_heading) {
-            (Some(i), Some(g)) if trusted => Some(i.weighed_with(g).rad),
-            (i, _) => i.map(|i| i.rad),
-        };
-        let motion = match heading {
+        let motion = match image_heading_rad {
             Some(h) => Motion {
                 heading_change_rad: h,
                 ..ground

@@ -18,16 +18,14 @@
 //!    is filled up to its share with its strongest other candidates. A track lives as long as
 //!    its corner is found again, not only while it stays among its cell's strongest.
 //!
-//! The odometer takes the heading change where it stands, weighed with the one the ground's
-//! matched pairs show by their variances ([`ImageMotion::heading`]), and the ground vote's
-//! distance given that heading.
+//! The odometer takes the heading change where it stands, and the ground vote's distance given
+//! that heading.
 
 pub mod consensus;
 pub mod corners;
 pub mod epipolar;
 pub mod patch;
 
-use crate::calibration::AngleEstimate;
 use crate::config::ValidConfig;
 use crate::frame::Frame;
 use crate::motion::Motion;
@@ -104,16 +102,6 @@ pub struct ImageMotion {
     /// Of the inliers, those seen above the horizon in the last frame: points off the road's
     /// plane (0 without a motion).
     pub inliers_above_horizon: u16,
-}
-
-impl ImageMotion {
-    /// The heading change with its standard deviation, where it stands.
-    pub fn heading(&self) -> Option<AngleEstimate> {
-        self.heading_change_rad.map(|rad| AngleEstimate {
-            rad,
-            sd_rad: self.heading_sd_rad,
-        })
-    }
 }
 
 /// A candidate's best previous feature: which, and how unlike (hundredths of a grey level).

@@ -6,7 +6,7 @@
 pub mod paper;
 pub mod pitch_vote;
 
-use crate::calibration::{AngleEstimate, SidewaysStep};
+use crate::calibration::SidewaysStep;
 use crate::config::{Method, ValidConfig};
 use crate::harris::Corners;
 use crate::heading::ImageMotion;
@@ -64,9 +64,6 @@ pub struct Outcome<'a, const F: usize> {
     /// error times the distance, on average (see [`crate::calibration`]); `None` where the
     /// pairs cannot tell it, and for the paper's method.
     pub sideways: Option<SidewaysStep>,
-    /// The heading change the matched pairs' residuals across the chord balance at, radians,
-    /// with its standard deviation; `None` where too few pairs, and for the paper's method.
-    pub ground_heading: Option<AngleEstimate>,
     /// Track `i`'s observation in this frame, where matched (as many as the tracks or fewer:
     /// the others were not matched).
     pub observed: &'a [Option<Observation>],
@@ -84,7 +81,6 @@ impl<'a, const F: usize> Outcome<'a, F> {
             attitude: Attitude::default(),
             prior_matches: None,
             sideways: None,
-            ground_heading: None,
             observed: &[],
             observations,
         }

@@ -182,7 +182,6 @@ impl<const N: usize, const F: usize, const GRID: usize> Paper<N, F, GRID> {
             attitude: Attitude::default(),
             prior_matches: None,
             sideways: None,
-            ground_heading: None,
             observed: self.observed.get(..n).unwrap_or_default(),
             observations: &self.obs,
         }

@@ -6,7 +6,7 @@
 //! balances their residuals across the chord.
 
 use super::pairs::{HEADING_STEP_RAD, Spread, residual, trig};
-use crate::calibration::{AngleEstimate, SidewaysStep};
+use crate::calibration::SidewaysStep;
 use crate::config::ValidConfig;
 use crate::motion::Motion;
 use crate::projection::GroundPoint;
@@ -20,8 +20,8 @@ pub struct Matches {
     /// Sums over the pairs of (range, distance): n, x, v, xx, xv.
     regression: [f32; 5],
     /// Sums over the pairs of the residual across the chord `r` and its rate with the heading
-    /// `r'`: n, r, r', r r', r'^2, r^2.
-    across: [f32; 6],
+    /// `r'`: n, r, r', r r', r'^2.
+    across: [f32; 5],
     /// Whether the heading is refined from them (`refine_heading`).
     refine: bool,
 }
@@ -84,27 +84,21 @@ pub fn match_tracks<const F: usize>(
             let r = &mut m.regression;
             *r = [r[0] + 1.0, r[1] + x, r[2] + v, r[3] + x * x, r[4] + x * v];
             let (r1, _) = residual(p, o.ground, &stepped);
-            m.add_across(r0, (r1 - r0) / HEADING_STEP_RAD);
+            let rate = (r1 - r0) / HEADING_STEP_RAD;
+            let a = &mut m.across;
+            *a = [
+                a[0] + 1.0,
+                a[1] + r0,
+                a[2] + rate,
+                a[3] + r0 * rate,
+                a[4] + rate * rate,
+            ];
         }
     }
     m
 }
 
 impl Matches {
-    /// Adds a pair's residual across the chord `r` (metres) and its rate with the heading (metres
-    /// a radian) to the sums.
-    fn add_across(&mut self, r: f32, rate: f32) {
-        let a = &mut self.across;
-        *a = [
-            a[0] + 1.0,
-            a[1] + r,
-            a[2] + rate,
-            a[3] + r * rate,
-            a[4] + rate * rate,
-            a[5] + r * r,
-        ];
-    }
-
     /// The common pitch error of both frames the pairs show, radians, positive when the
     /// hypotheses are too far nose down: a common error `e` moves a point at range `x` nearer by
     /// about `(x^2 + h^2) e / h`, so a pair at mean range `x` shows the distance
@@ -128,34 +122,23 @@ impl Matches {
         Some(-slope * height_m / (2.0 * v))
     }
 
-    /// The least squares line of the pairs' residuals across the chord against the residuals'
-    /// rate with the heading (a heading error moves a pair across in proportion to its range, a
-    /// step across the chord moves all alike): its intercept (metres) and slope (radians), and
-    /// the determinant of its normal equations. `None` with fewer than eight pairs or where
-    /// their ranges spread over less than a metre: the two cannot be told apart.
-    fn across_line(&self) -> Option<(f32, f32, f32)> {
-        let [n, r, rate, r_rate, rate_sq, _] = self.across;
+    /// The vehicle's step across the chord common to every pair: the intercept of the least
+    /// squares line of their residuals across the chord against the residuals' rate with the
+    /// heading (a heading error moves a pair across in proportion to its range, a sideways step
+    /// moves all alike). A camera whose mount file's yaw is too far left by `e` sees the
+    /// vehicle step left of the chord by about `e` times the distance. `None` with fewer than
+    /// eight pairs or where their ranges do not tell the two apart.
+    pub fn sideways_step(&self) -> Option<SidewaysStep> {
+        let [n, r, rate, r_rate, rate_sq] = self.across;
         let det = n * rate_sq - rate * rate;
+        // Under a metre's spread of the pairs' rates (ranges): the two cannot be told apart.
         if n < MIN_PAIRS || det <= n * n {
             return None;
         }
-        Some((
-            (r * rate_sq - rate * r_rate) / det,
-            (n * r_rate - r * rate) / det,
-            det,
-        ))
-    }
-
-    /// The vehicle's step across the chord common to every pair: the intercept of the least
-    /// squares line of their residuals across the chord against their rate with the heading. A
-    /// camera whose mount file's yaw is too far left by `e` sees the vehicle step left of the
-    /// chord by about `e` times the distance. `None` where the line is.
-    pub fn sideways_step(&self) -> Option<SidewaysStep> {
-        let (sideways_m, _, det) = self.across_line()?;
         Some(SidewaysStep {
-            sideways_m,
+            sideways_m: (r * rate_sq - rate * r_rate) / det,
             // The intercept's information over the residuals' variance, in pairs.
-            pairs: det / self.across[4],
+            pairs: det / rate_sq,
         })
     }
 
@@ -163,7 +146,7 @@ impl Matches {
     /// one Gauss-Newton step of least squares over them, the residual being nearly linear in the
     /// heading. `motion` itself with fewer than eight pairs, or when `refine_heading` is off.
     pub fn refined(&self, motion: Motion) -> Motion {
-        let [n, _, _, r_rate, rate_sq, _] = self.across;
+        let [n, _, _, r_rate, rate_sq] = self.across;
         if !self.refine || n < MIN_PAIRS || rate_sq <= 0.0 {
             return motion;
         }
@@ -171,79 +154,5 @@ impl Matches {
             heading_change_rad: motion.heading_change_rad - r_rate / rate_sq,
             ..motion
         }
-    }
-
-    /// The heading change the pairs' residuals across the chord show with the step across it
-    /// free (the slope of the line of `sideways_step`, from `motion`'s heading, at which they
-    /// were matched), radians, and its standard deviation from the residuals' scatter about the
-    /// line. A car leaves the arc's chord by a degree or so (slip, the body's sway), which
-    /// a heading fitted through the chord would take as a turn, and a standard deviation from
-    /// that fit would not show. `None` where the line is.
-    pub fn heading(&self, motion: Motion) -> Option<AngleEstimate> {
-        let (intercept, slope, det) = self.across_line()?;
-        let [n, r, _, r_rate, _, r_sq] = self.across;
-        let scatter = (r_sq - intercept * r - slope * r_rate).max(0.0) / (n - 2.0);
-        Some(AngleEstimate {
-            rad: motion.heading_change_rad - slope,
-            sd_rad: libm::sqrtf(scatter * n / det),
-        })
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Pairs at ranges 4 to 19 m whose residuals across the chord show a heading `error_rad`
-    /// too far left, a step `step_m` across the chord and a scatter of +-`noise_m`.
-    fn matches(error_rad: f32, step_m: f32, noise_m: f32) -> Matches {
-        let mut m = Matches::default();
-        for k in 0..16 {
-            let rate = 4.0 + k as f32;
-            let noise = if k % 2 == 0 { noise_m } else { -noise_m };
-            m.add_across(step_m + rate * error_rad + noise, rate);
-        }
-        m
-    }
-
-    #[test]
-    fn a_step_across_the_chord_does_not_turn_the_ground_s_heading() {
-        let at = Motion {
-            heading_change_rad: 0.02,
-            distance_m: 1.0,
-        };
-        // A 2 cm step (a degree off the chord over a metre), the heading 1 mrad off.
-        let m = matches(0.001, 0.02, 0.0);
-        let h = m.heading(at).unwrap();
-        assert!((h.rad - 0.019).abs() < 1e-5, "{}", h.rad);
-        assert!(h.sd_rad < 1e-5, "{}", h.sd_rad);
-        assert!((m.sideways_step().unwrap().sideways_m - 0.02).abs() < 1e-4);
-        // Fitted through the chord, the step reads as a turn of 1.5 mrad more.
-        let through_chord = Matches { refine: true, ..m }.refined(at).heading_change_rad;
-        assert!((through_chord - 0.0175).abs() < 1e-4, "{through_chord}");
-    }
-
-    #[test]
-    fn the_ground_s_heading_spread_is_the_residuals_over_their_ranges() {
-        let at = Motion {
-            heading_change_rad: 0.0,
-            distance_m: 1.0,
-        };
-        let h = matches(0.0, 0.0, 0.01).heading(at).unwrap();
-        // 16 pairs of +-1 cm about the line, ranges 4..19 m (a spread of 4.6 m): about 0.6 mrad.
-        let expected = 0.01 / (16.0f32.sqrt() * 4.61);
-        assert!(
-            (h.sd_rad / expected - 1.0).abs() < 0.1,
-            "{} {expected}",
-            h.sd_rad
-        );
-        assert!(h.rad.abs() < 2.0 * h.sd_rad, "{}", h.rad);
-        // Fewer than eight pairs, or all at one range: no heading.
-        let mut few = Matches::default();
-        for _ in 0..20 {
-            few.add_across(0.0, 10.0);
-        }
-        assert!(few.heading(at).is_none());
-        assert!(matches(0.0, 0.0, 0.0).heading(at).is_some());
     }
 }

@@ -365,7 +365,6 @@ impl<const N: usize, const F: usize, const GRID: usize, const K: usize> PitchVot
             attitude: outcome.attitude.attitude(s),
             prior_matches: Some(s.prior_matches),
             sideways: matches.sideways_step(),
-            ground_heading: matches.heading(outcome.motion),
             observed: self.observed.get(..n).unwrap_or_default(),
             observations: &self.search.obs,
         }
