@@ -36,9 +36,6 @@ pub struct Search {
     pub kernel_px: f32,
     /// Largest distance of an inlier in the refinement, pixels.
     pub inlier_px: f32,
-    /// The drive's typical median distance of a frame's inliers, pixels (0 before its first
-    /// fit): the robust weights never take a frame's pairs as placed more finely than this.
-    pub typical_median_px: f32,
 }
 
 /// Bins each side of the centre in each pass of the vote: (2 x 5 + 1)^2 bins a pass.
@@ -68,23 +65,11 @@ const PAIR_SD_PX: f32 = 0.3;
 
 /// Step of the numeric derivatives, radians.
 const DERIVATIVE_STEP: f32 = 1e-4;
-/// The refinement's robust weights: a residual of `r` weighs `1 / (1 + (r / s)^2)` (Cauchy's),
-/// so that a mismatch that falls within the inlier band by chance pulls little (Huber's
-/// weights, falling as `1 / r`, let four such of twenty shift the heading by 0.015 deg on the
-/// test's scene). The scale `s` is this many standard deviations of the inliers' residuals
-/// (the textbook constant: 95 % efficiency on normal residuals), taken from the larger of their
-/// median and the drive's typical median ([`Search::typical_median_px`]): the weights follow
-/// the camera's and the matcher's noise rather than a number of pixels fitted to one camera,
-/// and a frame of few pairs, whose fit takes up part of their noise, is not weighed more
-/// finely than the camera places its pairs.
-const CAUCHY_SDS: f32 = 2.385;
-/// A normal distribution's standard deviation over the median of its absolute values.
-const SD_PER_MEDIAN: f32 = 1.4826;
-/// Least scale of the robust weights, pixels: a guard for residuals all but exactly zero (a
-/// rendered scene), far below any matcher's noise.
-const MIN_CAUCHY_PX: f32 = 0.01;
-/// Bins of the histogram [`Median`] keeps over the inlier band.
-const MEDIAN_BINS: usize = 128;
+/// The refinement's robust scale, pixels: a residual of `r` weighs `1 / (1 + (r / s)^2)`
+/// (Cauchy's), so that a mismatch that falls within the inlier band by chance pulls little
+/// (Huber's weights, falling as `1 / r`, let four such of twenty shift the heading by 0.015
+/// deg on the test's scene; these, by 0.008).
+const CAUCHY_PX: f32 = 0.5;
 
 /// What the consensus found.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -95,8 +80,6 @@ pub struct Fit {
     pub inliers: u16,
     /// Their root mean square distance, pixels.
     pub rms_px: f32,
-    /// Their median distance, pixels (to a 128th of the inlier band).
-    pub median_px: f32,
     /// The heading change's standard deviation, radians: how well the inliers determine it
     /// (the others free). Large where they lie on one plane (a scene of nothing but road),
     /// whose points cannot tell a turn from a sideways step.
@@ -225,26 +208,17 @@ pub fn refine(
         let e = model.essential(p, s.distance_m);
         s.focal_px * sampson(&e, &c.x1, &c.x2)
     };
-    // The inliers within `scale` times the band, and the robust weights' scale from them.
     let select = |p: &Params, inlier: &mut [bool], scale: f32| {
         let e = model.essential(p, s.distance_m);
-        let mut kept = Median::new(scale * s.inlier_px);
+        let mut n = 0u16;
         for (c, keep) in pairs.iter().zip(inlier.iter_mut()) {
-            let r = (s.focal_px * sampson(&e, &c.x1, &c.x2)).abs();
-            *keep = r < scale * s.inlier_px;
-            if *keep {
-                kept.add(r);
-            }
+            *keep = (s.focal_px * sampson(&e, &c.x1, &c.x2)).abs() < scale * s.inlier_px;
+            n += u16::from(*keep);
         }
-        (kept.n, kept.median())
-    };
-    let weights_px = |median_px: f32| {
-        let px = CAUCHY_SDS * SD_PER_MEDIAN * median_px.max(s.typical_median_px);
-        px.max(MIN_CAUCHY_PX)
+        n
     };
     let mut choice = INLIER_SCALE.iter();
-    let (mut n, median_px) = select(&p, inlier, choice.next().copied().unwrap_or(1.0));
-    let mut cauchy_px = weights_px(median_px);
+    let mut n = select(&p, inlier, choice.next().copied().unwrap_or(1.0));
     let mut last_jtj = [[0.0f32; 5]; 5];
     for step in 0..STEPS {
         if n < min_inliers {
@@ -263,7 +237,7 @@ pub fn refine(
             let j: [f32; 5] = core::array::from_fn(|k| {
                 (s.focal_px * sampson(&moved[k], &c.x1, &c.x2) - r) / DERIVATIVE_STEP
             });
-            let w = 1.0 / (1.0 + (r / cauchy_px) * (r / cauchy_px));
+            let w = 1.0 / (1.0 + (r / CAUCHY_PX) * (r / CAUCHY_PX));
             for a in 0..5 {
                 jtr[a] += w * j[a] * r;
                 for b in 0..5 {
@@ -283,12 +257,10 @@ pub fn refine(
         let a = p.to_array();
         p = Params::from_array(core::array::from_fn(|k| a[k] - delta[k]));
         if RESELECT_AFTER.contains(&step) {
-            let median_px;
-            (n, median_px) = select(&p, inlier, choice.next().copied().unwrap_or(1.0));
-            cauchy_px = weights_px(median_px);
+            n = select(&p, inlier, choice.next().copied().unwrap_or(1.0));
         }
     }
-    let (n, median_px) = select(&p, inlier, 1.0);
+    let n = select(&p, inlier, 1.0);
     if n < min_inliers {
         return None;
     }
@@ -309,52 +281,8 @@ pub fn refine(
         params: p,
         inliers: n,
         rms_px,
-        median_px,
         heading_sd_rad: rms_px * libm::sqrtf(inverse_00.max(0.0)),
     })
-}
-
-/// The median of values in `[0, top)` from a histogram of [`MEDIAN_BINS`] bins, interpolated
-/// within its bin: no buffer of the values, no sort.
-struct Median {
-    counts: [u16; MEDIAN_BINS],
-    bin_width: f32,
-    /// Values counted.
-    n: u16,
-}
-
-impl Median {
-    fn new(top: f32) -> Self {
-        Self {
-            counts: [0; MEDIAN_BINS],
-            bin_width: top / MEDIAN_BINS as f32,
-            n: 0,
-        }
-    }
-
-    /// Counts `v`, not negative: one at or past the top in the last bin.
-    fn add(&mut self, v: f32) {
-        // A float-to-integer cast saturates; `min` keeps a large one in the histogram.
-        let bin = ((v / self.bin_width) as usize).min(MEDIAN_BINS - 1);
-        if let Some(c) = self.counts.get_mut(bin) {
-            *c = c.saturating_add(1);
-        }
-        self.n = self.n.saturating_add(1);
-    }
-
-    /// The median; 0 with nothing counted.
-    fn median(&self) -> f32 {
-        let half = f32::from(self.n) / 2.0;
-        let mut below = 0.0;
-        for (k, &c) in self.counts.iter().enumerate() {
-            let c = f32::from(c);
-            if c > 0.0 && below + c >= half {
-                return (k as f32 + (half - below) / c) * self.bin_width;
-            }
-            below += c;
-        }
-        0.0
-    }
 }
 
 /// Solves `a x = b` for a symmetric positive definite `a` (Cholesky), damped a little so that a
@@ -485,7 +413,6 @@ mod tests {
             focal_px: f,
             kernel_px: 0.7,
             inlier_px: 1.0,
-            typical_median_px: 0.0,
         };
         let (coarse, _) = vote::<128>(&model, &pairs, &s).unwrap();
         // The vote's direction of travel is the arc's: half a degree off here, which near points
@@ -500,109 +427,6 @@ mod tests {
         std::println!("{fit:?}, heading error {err} deg");
         assert!(err.abs() < 0.01, "{err} deg");
         assert!(fit.inliers >= 85 && fit.inliers <= 95, "{fit:?}");
-    }
-
-    /// The heading's mean pull over four draws of noise: 200 pairs placed to +-0.1 px, a fifth
-    /// of them turned 0.05 deg more (0.6 px at this focal length: a vehicle ahead drifting
-    /// across the lane), within the inlier band. Weighed alike they would pull it by 0.01 deg.
-    fn pull_of_a_drifting_fifth_deg(typical_median_px: f32) -> f32 {
-        let model = Model::new(&mount());
-        let truth = Params {
-            alpha: 0.8f32.to_radians(),
-            ..Params::default()
-        };
-        let drifting = Params {
-            alpha: truth.alpha + 0.05f32.to_radians(),
-            ..truth
-        };
-        let f = 718.0;
-        let s = Search {
-            alpha: truth.alpha,
-            alpha_half: 1f32.to_radians(),
-            pitch_half: 0.5f32.to_radians(),
-            distance_m: 1.0,
-            focal_px: f,
-            kernel_px: 0.7,
-            inlier_px: 1.0,
-            typical_median_px,
-        };
-        let mut pull_deg = 0.0;
-        for seed in 5..9 {
-            let mut next = crate::test_rng::uniform(seed);
-            let pairs: Vec<Pair> = scene(200)
-                .into_iter()
-                .enumerate()
-                .map(|(k, pt)| {
-                    let motion = if k % 5 == 0 { &drifting } else { &truth };
-                    let (x1, mut x2) = rays(&model, motion, 1.0, pt);
-                    x2.x += 0.2 * (next() - 0.5) / f;
-                    x2.y += 0.2 * (next() - 0.5) / f;
-                    Pair { x1, x2 }
-                })
-                .collect();
-            let mut inlier = std::vec![false; pairs.len()];
-            let fit = refine(&model, &pairs, truth, &s, 20, &mut inlier).unwrap();
-            pull_deg += (fit.params.alpha - truth.alpha).to_degrees() / 4.0;
-        }
-        pull_deg
-    }
-
-    #[test]
-    fn pairs_a_few_tenths_of_a_pixel_off_pull_in_proportion_to_the_matcher_s_noise() {
-        // Weighed at the pairs' own spread: under half the pull. (Weighed at a fixed half
-        // pixel, as before: 0.0087 deg, measured.)
-        let own = pull_of_a_drifting_fifth_deg(0.0);
-        assert!(own.abs() < 0.005, "{own} deg");
-        // A drive whose pairs are typically placed to 0.2 px (a median): the weights take
-        // these as no finer, and the drifting fifth pulls nearly fully.
-        let coarse = pull_of_a_drifting_fifth_deg(0.2);
-        assert!(coarse > 0.008, "{coarse} deg");
-    }
-
-    #[test]
-    fn exact_pairs_keep_the_weights_finite() {
-        let model = Model::new(&mount());
-        let truth = Params {
-            alpha: 0.8f32.to_radians(),
-            ..Params::default()
-        };
-        let pairs: Vec<Pair> = scene(60)
-            .into_iter()
-            .map(|pt| {
-                let (x1, x2) = rays(&model, &truth, 1.0, pt);
-                Pair { x1, x2 }
-            })
-            .collect();
-        let s = Search {
-            alpha: truth.alpha,
-            alpha_half: 1f32.to_radians(),
-            pitch_half: 0.5f32.to_radians(),
-            distance_m: 1.0,
-            focal_px: 718.0,
-            kernel_px: 0.7,
-            inlier_px: 1.0,
-            typical_median_px: 0.0,
-        };
-        let mut inlier = std::vec![false; pairs.len()];
-        let fit = refine(&model, &pairs, truth, &s, 20, &mut inlier).unwrap();
-        assert!((fit.params.alpha - truth.alpha).abs() < 1e-5, "{fit:?}");
-        assert_eq!(fit.inliers, 60);
-    }
-
-    #[test]
-    fn the_histogram_s_median_is_within_a_bin_of_the_values() {
-        let mut m = Median::new(1.0);
-        assert_eq!(m.median(), 0.0);
-        for v in [0.1, 0.5, 0.3, 0.2, 5.0] {
-            m.add(v);
-        }
-        // Sorted 0.1, 0.2, 0.3, 0.5, past the top: the median is 0.3.
-        assert!(
-            (m.median() - 0.3).abs() <= 1.0 / MEDIAN_BINS as f32,
-            "{}",
-            m.median()
-        );
-        assert_eq!(m.n, 5);
     }
 }
 #[cfg(test)]
@@ -641,7 +465,6 @@ mod ground_only {
             focal_px: 560.0,
             kernel_px: 0.7,
             inlier_px: 1.0,
-            typical_median_px: 0.0,
         };
         let (coarse, _) = vote::<128>(&model, &pairs, &s).unwrap();
         let mut inlier = std::vec![false; pairs.len()];

@@ -123,10 +123,6 @@ pub struct ImageHeading<const K: usize> {
     flow: [[Option<(i16, i16)>; CANDIDATES_PER_FEATURE]; K],
     pairs: Vec<Pair, K>,
     inlier: [bool; K],
-    /// The mean over the drive's fits of their inliers' median distance from the motion,
-    /// pixels, and how many fits: the camera's and the matcher's typical spread.
-    typical_median_px: f32,
-    fits: u32,
 }
 
 impl<const K: usize> ImageHeading<K> {
@@ -140,8 +136,6 @@ impl<const K: usize> ImageHeading<K> {
         flow: [[None; CANDIDATES_PER_FEATURE]; K],
         pairs: Vec::new(),
         inlier: [false; K],
-        typical_median_px: 0.0,
-        fits: 0,
     };
 
     /// Takes `cfg`'s camera and forgets every frame.
@@ -158,8 +152,6 @@ impl<const K: usize> ImageHeading<K> {
     /// Forgets every frame.
     pub fn reset(&mut self) {
         self.features.clear();
-        self.typical_median_px = 0.0;
-        self.fits = 0;
     }
 
     /// Finds this frame's corners, matches them with the last frame's features and, with
@@ -435,21 +427,16 @@ impl<const K: usize> ImageHeading<K> {
             focal_px: cfg.config().camera.fx_px,
             kernel_px: s.image_kernel_px,
             inlier_px: s.image_inlier_px,
-            typical_median_px: self.typical_median_px,
         };
         let (start, _) = consensus::vote::<K>(&self.model, &self.pairs, &search)?;
         let inlier = self.inlier.get_mut(..self.pairs.len()).unwrap_or_default();
-        let fit = consensus::refine(
+        consensus::refine(
             &self.model,
             &self.pairs,
             start,
             &search,
             s.image_min_inliers,
             inlier,
-        )?;
-        // The running mean of the fits' medians.
-        self.fits = self.fits.saturating_add(1);
-        self.typical_median_px += (fit.median_px - self.typical_median_px) / self.fits as f32;
-        Some(fit)
+        )
     }
 }
