@@ -62,6 +62,10 @@ const CANDIDATES_PER_FEATURE: usize = 4;
 const TRIED: usize = 4;
 const TRIED_TRACKED: usize = 2;
 
+/// Fits the camera's typical spread is averaged over (about half a minute of driving at ten
+/// frames a second), so that it follows a change of light or weather.
+const TYPICAL_FITS: u16 = 256;
+
 /// Image motions are kept in sixteenths of a pixel.
 const FLOW_SCALE: f32 = 16.0;
 
@@ -123,6 +127,11 @@ pub struct ImageHeading<const K: usize> {
     flow: [[Option<(i16, i16)>; CANDIDATES_PER_FEATURE]; K],
     pairs: Vec<Pair, K>,
     inlier: [bool; K],
+    /// The mean over the latest fits of their inliers' median distance from the motion,
+    /// pixels, and over how many (up to [`TYPICAL_FITS`]): the camera's and the matcher's
+    /// typical spread, the scale of the refinement's robust weights.
+    typical_median_px: f32,
+    fits: u16,
 }
 
 impl<const K: usize> ImageHeading<K> {
@@ -136,12 +145,16 @@ impl<const K: usize> ImageHeading<K> {
         flow: [[None; CANDIDATES_PER_FEATURE]; K],
         pairs: Vec::new(),
         inlier: [false; K],
+        typical_median_px: 0.0,
+        fits: 0,
     };
 
-    /// Takes `cfg`'s camera and forgets every frame.
+    /// Takes `cfg`'s camera and forgets every frame and the camera's typical spread.
     pub fn configure(&mut self, cfg: &ValidConfig) {
         self.remount(cfg);
         self.reset();
+        self.typical_median_px = 0.0;
+        self.fits = 0;
     }
 
     /// Takes `cfg`'s mount (turned by the calibration), keeping the features.
@@ -149,7 +162,7 @@ impl<const K: usize> ImageHeading<K> {
         self.model = Model::new(&cfg.config().mount);
     }
 
-    /// Forgets every frame.
+    /// Forgets every frame; the camera's typical spread stays (the same camera).
     pub fn reset(&mut self) {
         self.features.clear();
     }
@@ -427,16 +440,21 @@ impl<const K: usize> ImageHeading<K> {
             focal_px: cfg.config().camera.fx_px,
             kernel_px: s.image_kernel_px,
             inlier_px: s.image_inlier_px,
+            typical_median_px: self.typical_median_px,
         };
         let (start, _) = consensus::vote::<K>(&self.model, &self.pairs, &search)?;
         let inlier = self.inlier.get_mut(..self.pairs.len()).unwrap_or_default();
-        consensus::refine(
+        let fit = consensus::refine(
             &self.model,
             &self.pairs,
             start,
             &search,
             s.image_min_inliers,
             inlier,
-        )
+        )?;
+        // The running mean of the fits' medians, over the latest TYPICAL_FITS.
+        self.fits = (self.fits + 1).min(TYPICAL_FITS);
+        self.typical_median_px += (fit.median_px - self.typical_median_px) / f32::from(self.fits);
+        Some(fit)
     }
 }
