@@ -14,6 +14,9 @@ use roadvo_sim::simulate::{poses_path, sequence_dir, simulate};
 /// Frames of the kitti-like drive: about 260 m, its first two bends.
 const FRAMES: usize = 300;
 
+/// Road after which a learned mount is scored, metres.
+const SETTLED_M: f64 = 100.0;
+
 /// The first `frames` of `scenario` (seed 1, `overlays` on top) rendered into `dir`: the
 /// sequence, its truth, and the mount file beside it.
 fn render(
@@ -120,10 +123,19 @@ fn a_yaw_error_in_the_mount_file_is_learned_while_driving() {
     assert!(yaw.sd_rad.to_degrees() < 0.2, "{c:?}");
     assert_eq!(kept.ran.calibration, Calibration::NONE);
     // The error turned the ground's heading by about 0.09 deg/m; learned, it is gone after the
-    // first tens of metres.
+    // first tens of metres. Scored after the first 100 m (issue 21's measure): what the
+    // first frames learn is one draw of the ground's noise (the whole drive's r_err on seeds
+    // 1-3 is 0.004-0.023 deg/m from it alone), the drive after them the learning's result.
+    let mut driven_m = 0.0;
+    let from = (1..truth.len())
+        .find(|&i| {
+            driven_m += true_step_m(&truth, i);
+            driven_m >= SETTLED_M
+        })
+        .unwrap();
     let (l, k) = (
-        evaluate(&truth, &learned.poses).unwrap(),
-        evaluate(&truth, &kept.poses).unwrap(),
+        evaluate(&truth[from..], &learned.poses[from..]).unwrap(),
+        evaluate(&truth[from..], &kept.poses[from..]).unwrap(),
     );
     let (lr, kr) = (l.r_err_deg_per_m.unwrap(), k.r_err_deg_per_m.unwrap());
     let (lt, kt) = (l.t_err_pct.unwrap(), k.t_err_pct.unwrap());
