@@ -5,6 +5,7 @@ use crate::calibration::{self, Calibration, CalibrationError};
 use crate::config::{ConfigError, ValidConfig};
 use crate::frame::Frame;
 use crate::harris::{self, Corners, HarrisScratch};
+use crate::heading::ImagePrior;
 use crate::method::{self, Estimator, Prior};
 use crate::motion::{Motion, Pose2};
 use crate::time::{Duration, Instant};
@@ -344,9 +345,17 @@ impl<
             Duration::ZERO => 1.0,
             last => dt.ratio(last),
         });
-        let image =
+        // The pivot the arc is drawn from (step 7), which the camera swings about.
+        let pivot_m = interval.map_or(self.state.pivot_m, |dt| {
             self.estimator
-                .image_heading(frame, &self.config, ratio.map(|r| (prediction, r)));
+                .pivot_m(&self.config, prediction, dt, self.state.pivot_m)
+        });
+        let prior = ratio.map(|interval_ratio| ImagePrior {
+            prediction,
+            interval_ratio,
+            pivot_m,
+        });
+        let image = self.estimator.image_heading(frame, &self.config, prior);
         let image_heading_rad = image.and_then(|i| i.heading_change_rad);
         if let Some(i) = image {
             quality.image_corners = i.corners;
@@ -368,9 +377,6 @@ impl<
             });
         };
         // 7. Pivot: the tracks and the pose measured from where this frame's arc is drawn.
-        let pivot_m =
-            self.estimator
-                .pivot_m(&self.config, prediction, interval, self.state.pivot_m);
         self.move_pivot(pivot_m);
         // 8. Vote in the window of plausible motions and match (the method's).
         let inputs = method::Frame {

@@ -97,6 +97,15 @@ impl Model {
         }
     }
 
+    /// The camera seen from a pivot `pivot_m` ahead of the rear axle, where the vehicle's arc
+    /// is drawn from (tyre slip): a turn swings the camera about it.
+    pub fn from_pivot(&self, pivot_m: f32) -> Self {
+        Self {
+            m: self.m,
+            c: self.c - Vector3::new(pivot_m, 0.0, 0.0),
+        }
+    }
+
     /// Whether ray `x` (camera frame) points above the vehicle's horizontal: a point seen
     /// along it is not on the road's plane.
     pub fn above_horizon(&self, x: &Vector3<f32>) -> bool {
@@ -237,6 +246,26 @@ pub(crate) mod tests {
             // A thousandth of a radian of heading: 0.7 px at KITTI's focal length.
             let off = 718.0 * sampson(&wrong, &x1, &x2).abs();
             assert!(off > 0.1, "{point:?}: {off} px");
+        }
+    }
+
+    #[test]
+    fn a_turn_swings_the_camera_about_the_pivot() {
+        // Tyre slip draws the arc from 0.4 m ahead of the rear axle: in a tight slow turn the
+        // camera, 1.2 m ahead of the axle, swings about the pivot 0.8 m behind it, and the rear
+        // axle's model would put it 0.02 m too far out in 0.3 m of travel.
+        let model = Model::new(&mount());
+        let pivoted = model.from_pivot(0.4);
+        let turn = Params {
+            alpha: 0.05,
+            ..Params::default()
+        };
+        let (e, axle) = (pivoted.essential(&turn, 0.3), model.essential(&turn, 0.3));
+        for point in [Vector3::new(6.0, 2.0, 0.0), Vector3::new(5.0, -2.0, 0.0)] {
+            let (x1, x2) = rays(&pivoted, &turn, 0.3, point);
+            assert!(sampson(&e, &x1, &x2).abs() < 1e-6, "{point:?}");
+            let off = 718.0 * sampson(&axle, &x1, &x2).abs();
+            assert!(off > 0.5, "{point:?}: {off} px");
         }
     }
 

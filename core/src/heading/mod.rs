@@ -108,6 +108,18 @@ pub struct ImageMotion {
     pub inliers_above_horizon: u16,
 }
 
+/// What the odometer knows of a frame's motion before its image is matched.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImagePrior {
+    /// The predicted motion; `None` before one is known.
+    pub prediction: Option<Motion>,
+    /// This frame's interval over the last one's.
+    pub interval_ratio: f32,
+    /// Where the vehicle's arc is drawn from, metres ahead of the rear axle (the tyres' slip,
+    /// `pivot_s2_per_m`): the camera swings about it in a turn.
+    pub pivot_m: f32,
+}
+
 /// A candidate's best previous feature: which, and how unlike (hundredths of a grey level).
 type Best = Option<(u16, u8)>;
 
@@ -168,14 +180,13 @@ impl<const K: usize> ImageHeading<K> {
     }
 
     /// Finds this frame's corners, matches them with the last frame's features and, with
-    /// `prior` (the predicted motion and the ratio of this frame's interval to the last one's;
-    /// `None` on the first frame of a drive), the motion they agree on; then keeps this frame's
-    /// features for the next.
+    /// `prior` (what is known of the motion before; `None` on the first frame of a drive), the
+    /// motion they agree on; then keeps this frame's features for the next.
     pub fn track<F: Frame + ?Sized>(
         &mut self,
         frame: &F,
         cfg: &ValidConfig,
-        prior: Option<(Option<Motion>, f32)>,
+        prior: Option<ImagePrior>,
     ) -> ImageMotion {
         let s = cfg.settings();
         let grid = Grid {
@@ -190,9 +201,12 @@ impl<const K: usize> ImageHeading<K> {
             corners: self.candidates.as_flattened().iter().flatten().count() as u16,
             ..ImageMotion::default()
         };
-        if let Some((prediction, ratio)) = prior {
-            out.matches = self.pair(frame, cfg, grid, prediction, ratio) as u16;
-            if let Some(fit) = self.consensus(cfg, prediction) {
+        if let Some(prior) = prior {
+            // The vehicle's arc is drawn from the pivot: the camera swings about it in a turn.
+            let model = self.model.from_pivot(prior.pivot_m);
+            let prediction = prior.prediction;
+            out.matches = self.pair(frame, cfg, grid, &model, prior) as u16;
+            if let Some(fit) = self.consensus(cfg, &model, prediction) {
                 out.inliers = fit.inliers;
                 out.heading_change_rad =
                     (fit.heading_sd_rad <= s.image_max_heading_sd_rad).then_some(fit.params.alpha);
@@ -294,15 +308,17 @@ impl<const K: usize> ImageHeading<K> {
         frame: &F,
         cfg: &ValidConfig,
         grid: Grid,
-        prediction: Option<Motion>,
-        ratio: f32,
+        model: &Model,
+        prior: ImagePrior,
     ) -> usize {
+        let ratio = prior.interval_ratio;
         let s = cfg.settings();
         // The predicted motion: a new feature is looked for where it takes the road's point
         // the feature would be, or turns it if it is above the horizon.
-        let (alpha, distance_m) =
-            prediction.map_or((0.0, 0.0), |m| (m.heading_change_rad, m.distance_m));
-        let predicted = self.model.predict(alpha, distance_m);
+        let (alpha, distance_m) = prior
+            .prediction
+            .map_or((0.0, 0.0), |m| (m.heading_change_rad, m.distance_m));
+        let predicted = model.predict(alpha, distance_m);
         self.best = [[None; CANDIDATES_PER_FEATURE]; K];
         self.found = [None; K];
         let candidates = self.candidates.as_flattened();
@@ -426,7 +442,12 @@ impl<const K: usize> ImageHeading<K> {
     }
 
     /// The motion the pairs agree on, if enough do.
-    fn consensus(&mut self, cfg: &ValidConfig, prediction: Option<Motion>) -> Option<Fit> {
+    fn consensus(
+        &mut self,
+        cfg: &ValidConfig,
+        model: &Model,
+        prediction: Option<Motion>,
+    ) -> Option<Fit> {
         let s = cfg.settings();
         let (alpha, alpha_half) = match prediction {
             Some(m) => (m.heading_change_rad, s.heading_window_rad),
@@ -442,10 +463,10 @@ impl<const K: usize> ImageHeading<K> {
             inlier_px: s.image_inlier_px,
             typical_median_px: self.typical_median_px,
         };
-        let (start, _) = consensus::vote::<K>(&self.model, &self.pairs, &search)?;
+        let (start, _) = consensus::vote::<K>(model, &self.pairs, &search)?;
         let inlier = self.inlier.get_mut(..self.pairs.len()).unwrap_or_default();
         let fit = consensus::refine(
-            &self.model,
+            model,
             &self.pairs,
             start,
             &search,

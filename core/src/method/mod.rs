@@ -9,7 +9,7 @@ pub mod pitch_vote;
 use crate::calibration::SidewaysStep;
 use crate::config::{Method, ValidConfig};
 use crate::harris::Corners;
-use crate::heading::ImageMotion;
+use crate::heading::{ImageMotion, ImagePrior};
 use crate::motion::Motion;
 use crate::projection::Attitude;
 use crate::time::Duration;
@@ -181,13 +181,13 @@ impl<const N: usize, const F: usize, const GRID: usize, const K: usize> Estimato
     }
 
     /// The heading change from the whole image (pitch vote with `image_heading`; `None`
-    /// otherwise). `prior`: the predicted motion and this frame's interval over the last
-    /// one's, `None` on a drive's first frame.
+    /// otherwise). `prior`: what is known of the motion before, `None` on a drive's first
+    /// frame.
     pub fn image_heading<Fr: crate::Frame + ?Sized>(
         &mut self,
         frame: &Fr,
         cfg: &ValidConfig,
-        prior: Option<(Option<Motion>, f32)>,
+        prior: Option<ImagePrior>,
     ) -> Option<ImageMotion> {
         match self {
             Self::PitchVote(pv) => pv.image_heading(frame, cfg, prior),

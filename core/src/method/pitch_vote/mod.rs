@@ -41,7 +41,7 @@ mod tests;
 use super::{Frame, Outcome, Prior};
 use crate::config::ValidConfig;
 use crate::harris::Corners;
-use crate::heading::{ImageHeading, ImageMotion};
+use crate::heading::{ImageHeading, ImageMotion, ImagePrior};
 use crate::motion::Motion;
 use crate::projection::{Attitude, Homography, Pixel, RollMap};
 use crate::time::Duration;
@@ -138,13 +138,13 @@ impl<const N: usize, const F: usize, const GRID: usize, const K: usize> PitchVot
     }
 
     /// The heading change from the whole image (with `image_heading`): this frame's corners
-    /// matched with the last frame's, the motion they agree on. `prior`: the predicted motion
-    /// and this frame's interval over the last one's (`None` on a drive's first frame).
+    /// matched with the last frame's, the motion they agree on. `prior`: what is known of the
+    /// motion before (`None` on a drive's first frame).
     pub fn image_heading<Fr: crate::Frame + ?Sized>(
         &mut self,
         frame: &Fr,
         cfg: &ValidConfig,
-        prior: Option<(Option<Motion>, f32)>,
+        prior: Option<ImagePrior>,
     ) -> Option<ImageMotion> {
         cfg.settings()
             .image_heading
