@@ -256,6 +256,7 @@ pub fn refine(
     // The last step's normal matrix under the gate's weights, for the heading's deviation.
     let mut gate_jtj = [[0.0f32; 5]; 5];
     for step in 0..STEPS {
+        let last = step + 1 == STEPS;
         if n < min_inliers {
             return None;
         }
@@ -266,19 +267,25 @@ pub fn refine(
             model.essential(&Params::from_array(a), s.distance_m)
         });
         let mut jtj = [[0.0f32; 5]; 5];
-        let mut gate = [[0.0f32; 5]; 5];
         let mut jtr = [0.0f32; 5];
         for (c, _) in pairs.iter().zip(inlier.iter()).filter(|(_, k)| **k) {
             let r = s.focal_px * sampson(&base, &c.x1, &c.x2);
             let j: [f32; 5] = core::array::from_fn(|k| {
                 (s.focal_px * sampson(&moved[k], &c.x1, &c.x2) - r) / DERIVATIVE_STEP
             });
-            let (w, w_gate) = (cauchy(r, cauchy_px), cauchy(r, GATE_CAUCHY_PX));
+            let w = cauchy(r, cauchy_px);
             for a in 0..5 {
                 jtr[a] += w * j[a] * r;
                 for b in 0..5 {
                     jtj[a][b] += w * j[a] * j[b];
-                    gate[a][b] += w_gate * j[a] * j[b];
+                }
+            }
+            if last {
+                let w_gate = cauchy(r, GATE_CAUCHY_PX);
+                for a in 0..5 {
+                    for b in 0..5 {
+                        gate_jtj[a][b] += w_gate * j[a] * j[b];
+                    }
                 }
             }
         }
@@ -287,11 +294,12 @@ pub fn refine(
         let a = p.to_array();
         for k in [3, 4] {
             jtj[k][k] += prior;
-            gate[k][k] += prior;
             jtr[k] += prior * a[k];
+            if last {
+                gate_jtj[k][k] += prior;
+            }
         }
         let delta = solve(jtj, jtr)?;
-        gate_jtj = gate;
         let a = p.to_array();
         p = Params::from_array(core::array::from_fn(|k| a[k] - delta[k]));
         if RESELECT_AFTER.contains(&step) {
