@@ -66,6 +66,21 @@ const INLIER_SCALE: [f32; 3] = [3.0, 2.0, 1.0];
 const TRAVEL_SD_RAD: f32 = 6.0 * core::f32::consts::PI / 180.0;
 const PAIR_SD_PX: f32 = 0.3;
 
+/// The distances tried where the direction of travel hangs on the distance
+/// ([`distance_factor`]), as factors of the given one: half octaves, up to 2.8 times either way.
+const DISTANCE_FACTORS: [f32; 7] = {
+    use core::f32::consts::{FRAC_1_SQRT_2, SQRT_2};
+    [
+        0.5 * FRAC_1_SQRT_2,
+        0.5,
+        FRAC_1_SQRT_2,
+        1.0,
+        SQRT_2,
+        2.0,
+        2.0 * SQRT_2,
+    ]
+};
+
 /// Step of the numeric derivatives, radians.
 const DERIVATIVE_STEP: f32 = 1e-4;
 /// The refinement's robust weights: a residual of `r` weighs `1 / (1 + (r / s)^2)` (Cauchy's),
@@ -105,6 +120,10 @@ pub struct Fit {
     /// (the others free). Large where they lie on one plane (a scene of nothing but road),
     /// whose points cannot tell a turn from a sideways step.
     pub heading_sd_rad: f32,
+    /// What the refinement minimised, at its end: each pair's robust loss (Cauchy's, at most
+    /// that of the inlier band's edge, so that every pair counts) plus the prior's. Fits of
+    /// the same pairs compare by it.
+    pub objective: f32,
 }
 
 /// The pairs' rays as columns, `[x1.x, x1.y, x2.x, x2.y]` (both at z = 1), where the compiler
@@ -322,6 +341,20 @@ pub fn refine(
         })
         .sum();
     let rms_px = libm::sqrtf(sum_sq / f32::from(n));
+    // The objective: Cauchy's loss `s^2 / 2 ln(1 + (r / s)^2)` is the one its weights minimise.
+    let e = model.essential(&p, s.distance_m);
+    let c2 = cauchy_px * cauchy_px;
+    let losses: f32 = pairs
+        .iter()
+        .map(|c| {
+            let r = (s.focal_px * sampson(&e, &c.x1, &c.x2))
+                .abs()
+                .min(s.inlier_px);
+            0.5 * c2 * libm::logf(1.0 + r * r / c2)
+        })
+        .sum();
+    let prior = 0.5 * (PAIR_SD_PX / TRAVEL_SD_RAD) * (PAIR_SD_PX / TRAVEL_SD_RAD);
+    let objective = losses + prior * (p.azimuth * p.azimuth + p.elevation * p.elevation);
     // The heading's variance: the first diagonal entry of the inverse normal matrix, times the
     // residuals' variance.
     let inverse_00 = solve(gate_jtj, [1.0, 0.0, 0.0, 0.0, 0.0])?[0];
@@ -331,7 +364,55 @@ pub fn refine(
         rms_px,
         median_px,
         heading_sd_rad: rms_px * libm::sqrtf(inverse_00.max(0.0)),
+        objective,
     })
+}
+
+/// Whether the turn the search is centred on swings the camera's travel (the camera sits
+/// ahead of the pivot, [`Model::swing_arm_m`]) by more than the prior's width on its
+/// direction: then the direction the model expects hangs on the distance, which the
+/// prediction may have wrong (a slow, tight turn past a verge or a bank the ground window
+/// took for road), and the prior would turn the heading with it.
+pub fn swing_exceeds_prior(model: &Model, s: &Search) -> bool {
+    (s.alpha * model.swing_arm_m()).abs() > TRAVEL_SD_RAD * s.distance_m
+}
+
+/// The factor on `s.distance_m` the pairs agree with best: the consensus ([`vote`] and
+/// [`refine`]) at each of [`DISTANCE_FACTORS`], the least objective, refined between its
+/// neighbours by a parabola in the factor's logarithm. 1 where no factor gives a fit.
+/// `inlier` is left as the last fit's.
+pub fn distance_factor<const K: usize>(
+    model: &Model,
+    pairs: &[Pair],
+    s: &Search,
+    min_inliers: u16,
+    inlier: &mut [bool],
+) -> f32 {
+    let objectives = DISTANCE_FACTORS.map(|factor| {
+        let s = Search {
+            distance_m: s.distance_m * factor,
+            ..*s
+        };
+        vote::<K>(model, pairs, &s)
+            .and_then(|(start, _)| refine(model, pairs, start, &s, min_inliers, inlier))
+            .map_or(f32::INFINITY, |fit| fit.objective)
+    });
+    let Some(best) = (0..DISTANCE_FACTORS.len())
+        .filter(|&k| objectives[k].is_finite())
+        .min_by(|&a, &b| objectives[a].total_cmp(&objectives[b]))
+    else {
+        return 1.0;
+    };
+    let step = 0.5 * core::f32::consts::LN_2;
+    let mut log_factor = libm::logf(DISTANCE_FACTORS[best]);
+    let below = best.checked_sub(1).and_then(|k| objectives.get(k));
+    if let (Some(&below), Some(&above)) = (below, objectives.get(best + 1)) {
+        let curvature = below - 2.0 * objectives[best] + above;
+        if curvature.is_finite() && curvature > 0.0 {
+            log_factor += (0.5 * step * (below - above) / curvature).clamp(-step, step);
+        }
+    }
+    libm::expf(log_factor)
 }
 
 /// Cauchy's weight of a residual `r` at scale `scale` (both pixels).
@@ -645,6 +726,71 @@ mod tests {
             m.median()
         );
         assert_eq!(m.n, 5);
+    }
+
+    #[test]
+    fn a_slow_tight_turn_finds_its_distance() {
+        // 3 deg over 0.27 m where the prediction says 0.1 m (the ground window saw a verge):
+        // at 0.1 m the camera's swing would turn its travel by 36 deg instead of 13.
+        let model = Model::new(&mount());
+        let truth = Params {
+            alpha: 3f32.to_radians(),
+            pitch: 0.1f32.to_radians(),
+            azimuth: 0.3f32.to_radians(),
+            ..Params::default()
+        };
+        let f = 718.0;
+        let mut next = crate::test_rng::uniform(11u32);
+        let pairs: Vec<Pair> = scene(90)
+            .into_iter()
+            .map(|pt| {
+                let (x1, mut x2) = rays(&model, &truth, 0.27, pt);
+                // A third of a pixel of noise.
+                x2.x += 0.6 * (next() - 0.5) / f;
+                x2.y += 0.6 * (next() - 0.5) / f;
+                Pair { x1, x2 }
+            })
+            .collect();
+        let s = Search {
+            alpha: 2.8f32.to_radians(),
+            alpha_half: 1f32.to_radians(),
+            pitch_half: 0.6f32.to_radians(),
+            distance_m: 0.1,
+            focal_px: f,
+            kernel_px: 0.7,
+            inlier_px: 1.0,
+            typical_median_px: 0.0,
+        };
+        assert!(swing_exceeds_prior(&model, &s));
+        let mut inlier = std::vec![false; pairs.len()];
+        let heading_error_deg = |s: &Search, inlier: &mut [bool]| {
+            let (start, _) = vote::<128>(&model, &pairs, s).unwrap();
+            let fit = refine(&model, &pairs, start, s, 20, inlier).unwrap();
+            (fit.params.alpha - truth.alpha).to_degrees()
+        };
+        let predicted = heading_error_deg(&s, &mut inlier);
+        let factor = distance_factor::<128>(&model, &pairs, &s, 20, &mut inlier);
+        let found = Search {
+            distance_m: s.distance_m * factor,
+            ..s
+        };
+        let err = heading_error_deg(&found, &mut inlier);
+        std::println!(
+            "at the prediction {predicted} deg; found {} m, {err} deg",
+            found.distance_m
+        );
+        assert!(
+            (found.distance_m - 0.27).abs() < 0.04,
+            "{} m",
+            found.distance_m
+        );
+        assert!(
+            err.abs() < 0.01 && predicted.abs() > 0.03,
+            "{predicted} {err}"
+        );
+        // Straight on, the swing is nothing: the prediction's distance stands.
+        let straight = Search { alpha: 0.0, ..s };
+        assert!(!swing_exceeds_prior(&model, &straight));
     }
 }
 #[cfg(test)]

@@ -106,6 +106,12 @@ impl Model {
         }
     }
 
+    /// How far the camera sits ahead of the point the vehicle's arc is drawn from, metres: the
+    /// arm a turn swings it on, sideways by the turn times this.
+    pub fn swing_arm_m(&self) -> f32 {
+        self.c.x
+    }
+
     /// Whether ray `x` (camera frame) points above the vehicle's horizontal: a point seen
     /// along it is not on the road's plane.
     pub fn above_horizon(&self, x: &Vector3<f32>) -> bool {

@@ -26,6 +26,7 @@ pub mod corners;
 pub mod epipolar;
 pub mod patch;
 
+use crate::calibration::MIN_INLIERS_ABOVE_HORIZON;
 use crate::config::ValidConfig;
 use crate::frame::Frame;
 use crate::motion::Motion;
@@ -441,6 +442,13 @@ impl<const K: usize> ImageHeading<K> {
         self.pairs.len()
     }
 
+    /// The vote's peak refined, over the distance `search` gives; the inliers kept.
+    fn fit(&mut self, model: &Model, search: &Search, min_inliers: u16) -> Option<Fit> {
+        let (start, _) = consensus::vote::<K>(model, &self.pairs, search)?;
+        let inlier = self.inlier.get_mut(..self.pairs.len()).unwrap_or_default();
+        consensus::refine(model, &self.pairs, start, search, min_inliers, inlier)
+    }
+
     /// The motion the pairs agree on, if enough do.
     fn consensus(
         &mut self,
@@ -463,16 +471,26 @@ impl<const K: usize> ImageHeading<K> {
             inlier_px: s.image_inlier_px,
             typical_median_px: self.typical_median_px,
         };
-        let (start, _) = consensus::vote::<K>(model, &self.pairs, &search)?;
-        let inlier = self.inlier.get_mut(..self.pairs.len()).unwrap_or_default();
-        let fit = consensus::refine(
-            model,
-            &self.pairs,
-            start,
-            &search,
-            s.image_min_inliers,
-            inlier,
-        )?;
+        let min_inliers = s.image_min_inliers;
+        let mut fit = self.fit(model, &search, min_inliers)?;
+        // Where the camera's swing in a turn makes the direction of travel hang on the
+        // distance, the distance is found with the motion; only where pairs beyond the road
+        // tell that direction (road alone cannot tell it from a turn).
+        if consensus::swing_exceeds_prior(model, &search)
+            && self.above_horizon() >= MIN_INLIERS_ABOVE_HORIZON
+        {
+            let inlier = self.inlier.get_mut(..self.pairs.len()).unwrap_or_default();
+            let factor =
+                consensus::distance_factor::<K>(model, &self.pairs, &search, min_inliers, inlier);
+            let found = Search {
+                distance_m: search.distance_m * factor,
+                ..search
+            };
+            fit = match self.fit(model, &found, min_inliers) {
+                Some(fit) => fit,
+                None => self.fit(model, &search, min_inliers)?,
+            };
+        }
         // The running mean of the fits' medians, over the latest TYPICAL_FITS.
         self.fits = (self.fits + 1).min(TYPICAL_FITS);
         self.typical_median_px += (fit.median_px - self.typical_median_px) / f32::from(self.fits);
