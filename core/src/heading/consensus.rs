@@ -368,13 +368,13 @@ pub fn refine(
     })
 }
 
-/// Whether the turn the search is centred on swings the camera's travel (the camera sits
-/// ahead of the pivot, [`Model::swing_arm_m`]) by more than the prior's width on its
-/// direction: then the direction the model expects hangs on the distance, which the
-/// prediction may have wrong (a slow, tight turn past a verge or a bank the ground window
-/// took for road), and the prior would turn the heading with it.
-pub fn swing_exceeds_prior(model: &Model, s: &Search) -> bool {
-    (s.alpha * model.swing_arm_m()).abs() > TRAVEL_SD_RAD * s.distance_m
+/// Whether a turn of `alpha_rad` over `distance_m` swings the camera's travel (the camera
+/// sits ahead of the pivot, [`Model::swing_arm_m`]) by more than the prior's width on its
+/// direction: then the direction the model expects hangs on the distance, which may be wrong
+/// (the drive's first frame knows none; in a slow, tight turn the ground window may have taken
+/// a verge or a bank for road), and the prior would turn the heading with it.
+pub fn swing_exceeds_prior(model: &Model, alpha_rad: f32, distance_m: f32) -> bool {
+    (alpha_rad * model.swing_arm_m()).abs() > TRAVEL_SD_RAD * distance_m
 }
 
 /// The factor on `s.distance_m` the pairs agree with best: the consensus ([`vote`] and
@@ -761,7 +761,7 @@ mod tests {
             inlier_px: 1.0,
             typical_median_px: 0.0,
         };
-        assert!(swing_exceeds_prior(&model, &s));
+        assert!(swing_exceeds_prior(&model, s.alpha, s.distance_m));
         let mut inlier = std::vec![false; pairs.len()];
         let heading_error_deg = |s: &Search, inlier: &mut [bool]| {
             let (start, _) = vote::<128>(&model, &pairs, s).unwrap();
@@ -789,8 +789,7 @@ mod tests {
             "{predicted} {err}"
         );
         // Straight on, the swing is nothing: the prediction's distance stands.
-        let straight = Search { alpha: 0.0, ..s };
-        assert!(!swing_exceeds_prior(&model, &straight));
+        assert!(!swing_exceeds_prior(&model, 0.0, s.distance_m));
     }
 }
 #[cfg(test)]

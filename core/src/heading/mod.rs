@@ -476,7 +476,7 @@ impl<const K: usize> ImageHeading<K> {
         // Where the camera's swing in a turn makes the direction of travel hang on the
         // distance, the distance is found with the motion; only where pairs beyond the road
         // tell that direction (road alone cannot tell it from a turn).
-        if consensus::swing_exceeds_prior(model, &search)
+        if consensus::swing_exceeds_prior(model, fit.params.alpha, search.distance_m)
             && self.above_horizon() >= MIN_INLIERS_ABOVE_HORIZON
         {
             let inlier = self.inlier.get_mut(..self.pairs.len()).unwrap_or_default();
