@@ -5,7 +5,7 @@ use crate::calibration::{self, Calibration, CalibrationError};
 use crate::config::{ConfigError, ValidConfig};
 use crate::frame::Frame;
 use crate::harris::{self, Corners, HarrisScratch};
-use crate::heading::ImagePrior;
+use crate::heading::{ImageMotion, ImagePrior};
 use crate::method::{self, Estimator, Prior};
 use crate::motion::{Motion, Pose2};
 use crate::time::{Duration, Instant};
@@ -94,6 +94,18 @@ pub struct Quality {
     pub image_inliers: u16,
     /// The heading change is the whole image's (enough pairs agreed), not the ground window's.
     pub image_heading: bool,
+}
+
+impl Quality {
+    /// The whole image's counts, where its stage ran.
+    fn take_image(&mut self, image: Option<ImageMotion>) {
+        if let Some(i) = image {
+            self.image_corners = i.corners;
+            self.image_matches = i.matches;
+            self.image_inliers = i.inliers;
+            self.image_heading = i.heading_change_rad.is_some();
+        }
+    }
 }
 
 /// The result of one frame.
@@ -340,7 +352,9 @@ impl<
         quality.features_comoving =
             self.estimator
                 .set_aside(&self.config, &self.corners, prediction);
-        // 5. Heading from the whole image (pitch vote with `image_heading`).
+        // 5. Heading from the whole image (pitch vote with `image_heading`). On the first frame
+        // that moves no motion predicts where its features went: there the image waits for the
+        // ground's vote (step 8) and takes its motion as the prediction (step 9).
         let ratio = interval.map(|dt| match self.state.last_interval {
             Duration::ZERO => 1.0,
             last => dt.ratio(last),
@@ -355,17 +369,16 @@ impl<
             interval_ratio,
             pivot_m,
         });
-        let image = self.estimator.image_heading(frame, &self.config, prior);
-        let image_heading_rad = image.and_then(|i| i.heading_change_rad);
-        if let Some(i) = image {
-            quality.image_corners = i.corners;
-            quality.image_matches = i.matches;
-            quality.image_inliers = i.inliers;
-            quality.image_heading = image_heading_rad.is_some();
-        }
+        let image_waits = prior.is_some() && prediction.is_none();
+        let mut image = if image_waits {
+            None
+        } else {
+            self.estimator.image_heading(frame, &self.config, prior)
+        };
         let Some(interval) = interval else {
             // 6. Start-up: the first frame's corners become tracks.
             quality.startup = true;
+            quality.take_image(image);
             quality.tracks_refused =
                 self.estimator
                     .start_tracks(&self.config, &self.corners, &mut self.tracks);
@@ -386,7 +399,7 @@ impl<
                 prediction,
                 steady_speed_m_s: self.state.steady_speed_m_s,
                 fallbacks: self.state.fallbacks,
-                image_heading_rad,
+                image_heading_rad: image.and_then(|i| i.heading_change_rad),
             },
             interval,
             pivot_m,
@@ -411,6 +424,7 @@ impl<
             (Some(m), None) if trusted => m,
             _ => prediction.unwrap_or(Motion::ZERO),
         };
+        let image_heading_rad = image.and_then(|i| i.heading_change_rad);
         let motion = match image_heading_rad {
             Some(h) => Motion {
                 heading_change_rad: h,
@@ -428,6 +442,21 @@ impl<
             cfg.in_window(g.moved_ahead(pivot_m))
         });
         quality.tracks_refused = self.tracks.spawn_all(voted.observations.untaken());
+        // 5, late: the first frame that moves takes the ground's motion as the image's
+        // prediction (the tracks above were carried at the ground's heading, this frame only).
+        let mut motion = motion;
+        if image_waits {
+            let prior = prior.map(|p| ImagePrior {
+                prediction: trusted.then_some(ground),
+                ..p
+            });
+            image = self.estimator.image_heading(frame, &self.config, prior);
+            if let Some(h) = image.and_then(|i| i.heading_change_rad) {
+                motion.heading_change_rad = h;
+                quality.fallback = false;
+            }
+        }
+        quality.take_image(image);
         // 11. Integrate.
         self.state.pose = self.state.pose.advance(motion);
         self.state.motion = Some(motion);
