@@ -378,7 +378,7 @@ pub fn swing_exceeds_prior(model: &Model, alpha_rad: f32, distance_m: f32) -> bo
 }
 
 /// The factor on `s.distance_m` the pairs agree with best: the consensus ([`vote`] and
-/// [`refine`]) at each of [`DISTANCE_FACTORS`], the least objective, refined between its
+/// [`refine`]) at each of seven distances (half octaves up to 2.8 times either way), the least objective, refined between its
 /// neighbours by a parabola in the factor's logarithm. 1 where no factor gives a fit.
 /// `inlier` is left as the last fit's.
 pub fn distance_factor<const K: usize>(

@@ -13,7 +13,10 @@
 //! 3. **Consensus** ([`consensus`]): a vote over heading change by pitch change, every pair
 //!    voting through its distance from the planar motion's epipolar constraint ([`epipolar`]),
 //!    then Gauss-Newton on the peak's inliers over heading, pitch and roll change and the
-//!    direction of travel. The heading stands where enough pairs agree and determine it.
+//!    direction of travel. In a slow, tight turn, where the camera's swing about the pivot
+//!    makes that direction hang on the distance, the distance is found with the motion
+//!    ([`consensus::distance_factor`]). The heading stands where enough pairs agree and
+//!    determine it.
 //! 4. **Features for the next frame**: the paired candidates carry their tracks on; each cell
 //!    is filled up to its share with its strongest other candidates. A track lives as long as
 //!    its corner is found again, not only while it stays among its cell's strongest.
