@@ -425,7 +425,7 @@ impl<
             _ => prediction.unwrap_or(Motion::ZERO),
         };
         let image_heading_rad = image.and_then(|i| i.heading_change_rad);
-        let motion = match image_heading_rad {
+        let mut motion = match image_heading_rad {
             Some(h) => Motion {
                 heading_change_rad: h,
                 ..ground
@@ -444,7 +444,6 @@ impl<
         quality.tracks_refused = self.tracks.spawn_all(voted.observations.untaken());
         // 5, late: the first frame that moves takes the ground's motion as the image's
         // prediction (the tracks above were carried at the ground's heading, this frame only).
-        let mut motion = motion;
         if image_waits {
             let prior = prior.map(|p| ImagePrior {
                 prediction: trusted.then_some(ground),

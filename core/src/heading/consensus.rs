@@ -120,10 +120,8 @@ pub struct Fit {
     /// (the others free). Large where they lie on one plane (a scene of nothing but road),
     /// whose points cannot tell a turn from a sideways step.
     pub heading_sd_rad: f32,
-    /// What the refinement minimised, at its end: each pair's robust loss (Cauchy's, at most
-    /// that of the inlier band's edge, so that every pair counts) plus the prior's. Fits of
-    /// the same pairs compare by it.
-    pub objective: f32,
+    /// The scale of the robust weights the refinement ended with, pixels ([`objective`]).
+    pub weights_px: f32,
 }
 
 /// The pairs' rays as columns, `[x1.x, x1.y, x2.x, x2.y]` (both at z = 1), where the compiler
@@ -341,9 +339,26 @@ pub fn refine(
         })
         .sum();
     let rms_px = libm::sqrtf(sum_sq / f32::from(n));
-    // The objective: Cauchy's loss `s^2 / 2 ln(1 + (r / s)^2)` is the one its weights minimise.
+    // The heading's variance: the first diagonal entry of the inverse normal matrix, times the
+    // residuals' variance.
+    let inverse_00 = solve(gate_jtj, [1.0, 0.0, 0.0, 0.0, 0.0])?[0];
+    Some(Fit {
+        params: p,
+        inliers: n,
+        rms_px,
+        median_px,
+        heading_sd_rad: rms_px * libm::sqrtf(inverse_00.max(0.0)),
+        weights_px: cauchy_px,
+    })
+}
+
+/// What the refinement minimised, at `fit`'s end: each pair's robust loss (Cauchy's,
+/// `s^2 / 2 ln(1 + (r / s)^2)`, the one its weights minimise; at most that of the inlier band's
+/// edge, so that every pair counts) plus the prior's. Fits of the same pairs compare by it.
+pub fn objective(model: &Model, pairs: &[Pair], s: &Search, fit: &Fit) -> f32 {
+    let p = fit.params;
     let e = model.essential(&p, s.distance_m);
-    let c2 = cauchy_px * cauchy_px;
+    let c2 = fit.weights_px * fit.weights_px;
     let losses: f32 = pairs
         .iter()
         .map(|c| {
@@ -354,18 +369,7 @@ pub fn refine(
         })
         .sum();
     let prior = 0.5 * (PAIR_SD_PX / TRAVEL_SD_RAD) * (PAIR_SD_PX / TRAVEL_SD_RAD);
-    let objective = losses + prior * (p.azimuth * p.azimuth + p.elevation * p.elevation);
-    // The heading's variance: the first diagonal entry of the inverse normal matrix, times the
-    // residuals' variance.
-    let inverse_00 = solve(gate_jtj, [1.0, 0.0, 0.0, 0.0, 0.0])?[0];
-    Some(Fit {
-        params: p,
-        inliers: n,
-        rms_px,
-        median_px,
-        heading_sd_rad: rms_px * libm::sqrtf(inverse_00.max(0.0)),
-        objective,
-    })
+    losses + prior * (p.azimuth * p.azimuth + p.elevation * p.elevation)
 }
 
 /// Whether a turn of `alpha_rad` over `distance_m` swings the camera's travel (the camera
@@ -378,24 +382,29 @@ pub fn swing_exceeds_prior(model: &Model, alpha_rad: f32, distance_m: f32) -> bo
 }
 
 /// The factor on `s.distance_m` the pairs agree with best: the consensus ([`vote`] and
-/// [`refine`]) at each of seven distances (half octaves up to 2.8 times either way), the least objective, refined between its
-/// neighbours by a parabola in the factor's logarithm. 1 where no factor gives a fit.
-/// `inlier` is left as the last fit's.
+/// [`refine`]) at each of seven distances (half octaves up to 2.8 times either way; `given`,
+/// the fit at `s.distance_m` itself), the least [`objective`], refined between its neighbours
+/// by a parabola in the factor's logarithm. 1 where no other factor gives a fit. `inlier` is
+/// left as the last fit's.
 pub fn distance_factor<const K: usize>(
     model: &Model,
     pairs: &[Pair],
     s: &Search,
+    given: &Fit,
     min_inliers: u16,
     inlier: &mut [bool],
 ) -> f32 {
     let objectives = DISTANCE_FACTORS.map(|factor| {
+        if factor == 1.0 {
+            return objective(model, pairs, s, given);
+        }
         let s = Search {
             distance_m: s.distance_m * factor,
             ..*s
         };
         vote::<K>(model, pairs, &s)
             .and_then(|(start, _)| refine(model, pairs, start, &s, min_inliers, inlier))
-            .map_or(f32::INFINITY, |fit| fit.objective)
+            .map_or(f32::INFINITY, |fit| objective(model, pairs, &s, &fit))
     });
     let Some(best) = (0..DISTANCE_FACTORS.len())
         .filter(|&k| objectives[k].is_finite())
@@ -768,8 +777,10 @@ mod tests {
             let fit = refine(&model, &pairs, start, s, 20, inlier).unwrap();
             (fit.params.alpha - truth.alpha).to_degrees()
         };
-        let predicted = heading_error_deg(&s, &mut inlier);
-        let factor = distance_factor::<128>(&model, &pairs, &s, 20, &mut inlier);
+        let (start, _) = vote::<128>(&model, &pairs, &s).unwrap();
+        let given = refine(&model, &pairs, start, &s, 20, &mut inlier).unwrap();
+        let predicted = (given.params.alpha - truth.alpha).to_degrees();
+        let factor = distance_factor::<128>(&model, &pairs, &s, &given, 20, &mut inlier);
         let found = Search {
             distance_m: s.distance_m * factor,
             ..s

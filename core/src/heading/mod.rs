@@ -483,8 +483,14 @@ impl<const K: usize> ImageHeading<K> {
             && self.above_horizon() >= MIN_INLIERS_ABOVE_HORIZON
         {
             let inlier = self.inlier.get_mut(..self.pairs.len()).unwrap_or_default();
-            let factor =
-                consensus::distance_factor::<K>(model, &self.pairs, &search, min_inliers, inlier);
+            let factor = consensus::distance_factor::<K>(
+                model,
+                &self.pairs,
+                &search,
+                &fit,
+                min_inliers,
+                inlier,
+            );
             let found = Search {
                 distance_m: search.distance_m * factor,
                 ..search
