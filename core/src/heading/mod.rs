@@ -54,6 +54,10 @@ const TRACKED_REACH_PX: f32 = 10.0;
 /// and the road's, and points a few metres away move tens of pixels a frame.
 const NEW_REACH_PX: (f32, f32) = (48.0, 32.0);
 
+/// At most this many headings either side of straight are tried where no motion predicts the
+/// features' places ([`ImageHeading::start_guess`]): a bound on one frame's work.
+const MAX_START_STEPS: f32 = 3.0;
+
 /// Least distance travelled the translation is given, metres: standing still, the constraint
 /// keeps a direction.
 const MIN_DISTANCE_M: f32 = 0.1;
@@ -200,7 +204,6 @@ impl<const K: usize> ImageHeading<K> {
         };
         let slots = self.candidates.as_flattened_mut();
         corners::detect(frame, s.image_corner_threshold, grid, patch::MARGIN, slots);
-        self.flow = [[None; CANDIDATES_PER_FEATURE]; K];
         let mut out = ImageMotion {
             corners: self.candidates.as_flattened().iter().flatten().count() as u16,
             ..ImageMotion::default()
@@ -209,7 +212,12 @@ impl<const K: usize> ImageHeading<K> {
             // The vehicle's arc is drawn from the pivot: the camera swings about it in a turn.
             let model = self.model.from_pivot(prior.pivot_m);
             let prediction = prior.prediction;
-            out.matches = self.pair(frame, cfg, grid, &model, prior) as u16;
+            let ratio = prior.interval_ratio;
+            let guess = match prediction {
+                Some(m) => m,
+                None => self.start_guess(frame, cfg, grid, &model, ratio),
+            };
+            out.matches = self.pair(frame, cfg, grid, &model, guess, ratio) as u16;
             if let Some(fit) = self.consensus(cfg, &model, prediction) {
                 out.inliers = fit.inliers;
                 out.heading_change_rad =
@@ -305,26 +313,65 @@ impl<const K: usize> ImageHeading<K> {
         (p.u_px, p.v_px)
     }
 
-    /// Pairs the last frame's features with this frame's candidates (found over `grid`); how
-    /// many.
+    /// With no motion to predict from (the first frame that moves, where the ground's vote
+    /// was not trusted), the motion the features are looked for at: headings a reach apart
+    /// across the start-up window and distances across the start-up one (standing, half way,
+    /// its end), each paired and voted on, nearest straight and standing first; the one whose
+    /// consensus holds the most pairs. A turn of a few degrees, or a metre of travel, moves
+    /// features further than their reach, and pairs looked for at the wrong motion find no
+    /// consensus.
+    fn start_guess<F: Frame + ?Sized>(
+        &mut self,
+        frame: &F,
+        cfg: &ValidConfig,
+        grid: Grid,
+        model: &Model,
+        ratio: f32,
+    ) -> Motion {
+        let s = cfg.settings();
+        let step_rad = libm::atanf(NEW_REACH_PX.0 / cfg.config().camera.fx_px);
+        let steps = libm::roundf(s.startup_heading_window_rad / step_rad).min(MAX_START_STEPS);
+        let search = Self::search(cfg, None, self.typical_median_px);
+        let mut best = (0, Motion::ZERO);
+        for distance_m in [0.0, 0.5, 1.0].map(|f| f * s.startup_distance_max_m) {
+            for k in 0..=(2 * steps as i32) {
+                // 0, -1, +1, -2, +2, ... steps.
+                let step = if k % 2 == 0 { -(k / 2) } else { k / 2 + 1 };
+                let guess = Motion {
+                    heading_change_rad: step as f32 * step_rad,
+                    distance_m,
+                };
+                self.pair(frame, cfg, grid, model, guess, ratio);
+                let inliers = self
+                    .fit(model, &search, s.image_min_inliers)
+                    .map_or(0, |f| f.inliers);
+                if inliers > best.0 {
+                    best = (inliers, guess);
+                }
+            }
+        }
+        best.1
+    }
+
+    /// Pairs the last frame's features with this frame's candidates (found over `grid`),
+    /// looked for where the `guess`ed motion takes them (`ratio`: this frame's interval over
+    /// the last one's); how many.
     fn pair<F: Frame + ?Sized>(
         &mut self,
         frame: &F,
         cfg: &ValidConfig,
         grid: Grid,
         model: &Model,
-        prior: ImagePrior,
+        guess: Motion,
+        ratio: f32,
     ) -> usize {
-        let ratio = prior.interval_ratio;
         let s = cfg.settings();
-        // The predicted motion: a new feature is looked for where it takes the road's point
-        // the feature would be, or turns it if it is above the horizon.
-        let (alpha, distance_m) = prior
-            .prediction
-            .map_or((0.0, 0.0), |m| (m.heading_change_rad, m.distance_m));
-        let predicted = model.predict(alpha, distance_m);
+        // A new feature is looked for where the guess takes the road's point the feature would
+        // be, or turns it if it is above the horizon.
+        let predicted = model.predict(guess.heading_change_rad, guess.distance_m);
         self.best = [[None; CANDIDATES_PER_FEATURE]; K];
         self.found = [None; K];
+        self.flow = [[None; CANDIDATES_PER_FEATURE]; K];
         let candidates = self.candidates.as_flattened();
         for (i, p) in self.features.iter().enumerate() {
             let (pu, pv) = (f32::from(p.u), f32::from(p.v));
@@ -452,19 +499,15 @@ impl<const K: usize> ImageHeading<K> {
         consensus::refine(model, &self.pairs, start, search, min_inliers, inlier)
     }
 
-    /// The motion the pairs agree on, if enough do.
-    fn consensus(
-        &mut self,
-        cfg: &ValidConfig,
-        model: &Model,
-        prediction: Option<Motion>,
-    ) -> Option<Fit> {
+    /// What the consensus searches: around the `prediction`, or over the start-up window
+    /// where there is none.
+    fn search(cfg: &ValidConfig, prediction: Option<Motion>, typical_median_px: f32) -> Search {
         let s = cfg.settings();
         let (alpha, alpha_half) = match prediction {
             Some(m) => (m.heading_change_rad, s.heading_window_rad),
             None => (0.0, s.startup_heading_window_rad),
         };
-        let search = Search {
+        Search {
             alpha,
             alpha_half,
             pitch_half: PITCH_HALF_RAD,
@@ -472,9 +515,19 @@ impl<const K: usize> ImageHeading<K> {
             focal_px: cfg.config().camera.fx_px,
             kernel_px: s.image_kernel_px,
             inlier_px: s.image_inlier_px,
-            typical_median_px: self.typical_median_px,
-        };
-        let min_inliers = s.image_min_inliers;
+            typical_median_px,
+        }
+    }
+
+    /// The motion the pairs agree on, if enough do.
+    fn consensus(
+        &mut self,
+        cfg: &ValidConfig,
+        model: &Model,
+        prediction: Option<Motion>,
+    ) -> Option<Fit> {
+        let search = Self::search(cfg, prediction, self.typical_median_px);
+        let min_inliers = cfg.settings().image_min_inliers;
         let mut fit = self.fit(model, &search, min_inliers)?;
         // Where the camera's swing in a turn makes the direction of travel hang on the
         // distance, the distance is found with the motion; only where pairs beyond the road
