@@ -432,6 +432,11 @@ impl<
             },
             None => ground,
         };
+        // In a slow, tight turn the image measures the distance too (the camera's swing about
+        // the pivot), where the ground window often sees a verge or a bank: it stands.
+        if let Some(d) = image.and_then(|i| i.distance_m) {
+            motion.distance_m = d;
+        }
         quality.fallback = !trusted && image_heading_rad.is_none();
         // 10. Update the tracks (paper §2.3): matched ones take their observation, the others are
         // carried by the motion; an untrusted vote's matches are not evidence. The observations

@@ -114,6 +114,10 @@ pub struct ImageMotion {
     /// Of the inliers, those seen above the horizon in the last frame: points off the road's
     /// plane (0 without a motion).
     pub inliers_above_horizon: u16,
+    /// The distance the rear axle travelled, metres, where the pairs measured it with the
+    /// heading: in a slow, tight turn, from the camera's swing about the pivot
+    /// ([`consensus::distance_factor`]); `None` elsewhere (the heading not standing included).
+    pub distance_m: Option<f32>,
 }
 
 /// What the odometer knows of a frame's motion before its image is matched.
@@ -218,10 +222,11 @@ impl<const K: usize> ImageHeading<K> {
                 None => self.start_guess(frame, cfg, grid, &model, ratio),
             };
             out.matches = self.pair(frame, cfg, grid, &model, guess, ratio) as u16;
-            if let Some(fit) = self.consensus(cfg, &model, prediction) {
+            if let Some((fit, distance_m)) = self.consensus(cfg, &model, prediction) {
                 out.inliers = fit.inliers;
                 out.heading_change_rad =
                     (fit.heading_sd_rad <= s.image_max_heading_sd_rad).then_some(fit.params.alpha);
+                out.distance_m = distance_m.filter(|_| out.heading_change_rad.is_some());
                 out.pitch_change_rad = fit.params.pitch;
                 out.rms_px = fit.rms_px;
                 out.heading_sd_rad = fit.heading_sd_rad;
@@ -525,10 +530,11 @@ impl<const K: usize> ImageHeading<K> {
         cfg: &ValidConfig,
         model: &Model,
         prediction: Option<Motion>,
-    ) -> Option<Fit> {
+    ) -> Option<(Fit, Option<f32>)> {
         let search = Self::search(cfg, prediction, self.typical_median_px);
         let min_inliers = cfg.settings().image_min_inliers;
         let mut fit = self.fit(model, &search, min_inliers)?;
+        let mut distance_m = None;
         // Where the camera's swing in a turn makes the direction of travel hang on the
         // distance, the distance is found with the motion; only where pairs beyond the road
         // tell that direction (road alone cannot tell it from a turn).
@@ -549,13 +555,16 @@ impl<const K: usize> ImageHeading<K> {
                 ..search
             };
             fit = match self.fit(model, &found, min_inliers) {
-                Some(fit) => fit,
+                Some(fit) => {
+                    distance_m = Some(found.distance_m);
+                    fit
+                }
                 None => self.fit(model, &search, min_inliers)?,
             };
         }
         // The running mean of the fits' medians, over the latest TYPICAL_FITS.
         self.fits = (self.fits + 1).min(TYPICAL_FITS);
         self.typical_median_px += (fit.median_px - self.typical_median_px) / f32::from(self.fits);
-        Some(fit)
+        Some((fit, distance_m))
     }
 }
