@@ -524,7 +524,7 @@ impl<const K: usize> ImageHeading<K> {
         }
     }
 
-    /// The motion the pairs agree on, if enough do.
+    /// The motion the pairs agree on, if enough do, and the distance where they found it.
     fn consensus(
         &mut self,
         cfg: &ValidConfig,
