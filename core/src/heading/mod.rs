@@ -114,8 +114,9 @@ pub struct ImageMotion {
     /// Of the inliers, those seen above the horizon in the last frame: points off the road's
     /// plane (0 without a motion).
     pub inliers_above_horizon: u16,
-    /// The distance the rear axle travelled, metres, where the pairs measured it with the
-    /// heading: in a slow, tight turn, from the camera's swing about the pivot
+    /// The distance travelled along the arc (from the pivot, as [`Motion::distance_m`]),
+    /// metres, where the pairs measured it with the heading: in a slow, tight turn, from the
+    /// camera's swing about the pivot
     /// ([`consensus::distance_factor`]); `None` elsewhere (the heading not standing included).
     pub distance_m: Option<f32>,
 }
