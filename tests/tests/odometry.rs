@@ -545,11 +545,7 @@ fn in_a_slow_tight_turn_the_whole_image_measures_the_distance() {
     let run = run_sequence(&seq, &mount, None).unwrap();
     let truth = read_poses(&kitti.join("poses/10.txt")).unwrap();
     let frames = 2..22;
-    let estimated: f64 = frames
-        .clone()
-        .map(|i| f64::from(run.estimates[i].motion.distance_m))
-        .sum();
-    let true_m: f64 = frames.clone().map(|i| true_step_m(&truth, i)).sum();
+    let (estimated, true_m) = distances(&run, &truth, frames.clone());
     assert!(
         (estimated / true_m - 1.0).abs() < 0.15,
         "frames 2-21: {estimated:.2} m against {true_m:.2}"
@@ -583,13 +579,13 @@ fn a_car_crossing_ahead_moves_neither_heading_nor_distance() {
     assert!(image.report.end_drift_pct <= 3.0, "{:#?}", image.report);
 }
 
-/// The distance driven over frames `range` as estimated and as true, metres.
-fn distances(d: &Drive, range: std::ops::Range<usize>) -> (f64, f64) {
+/// The distance driven over frames `range` as `run` estimated it and as `truth` has it, metres.
+fn distances(run: &RunOutput, truth: &[[f64; 12]], range: std::ops::Range<usize>) -> (f64, f64) {
     let estimated = range
         .clone()
-        .map(|i| f64::from(d.run.estimates[i].motion.distance_m))
+        .map(|i| f64::from(run.estimates[i].motion.distance_m))
         .sum();
-    (estimated, range.map(|i| true_step_m(&d.truth, i)).sum())
+    (estimated, range.map(|i| true_step_m(truth, i)).sum())
 }
 
 #[test]
@@ -605,7 +601,7 @@ fn in_town_a_pitch_error_in_the_mount_file_is_learned_while_driving() {
     assert_eq!(kept.run.ran.calibration.pitch, roadvo::Learned::NONE);
     assert_eq!(exact.run.ran.calibration.applied_pitch_rad(), 0.0);
     let ratio = |d: &Drive| {
-        let (est, truth) = distances(d, 80..120);
+        let (est, truth) = distances(&d.run, &d.truth, 80..120);
         est / truth
     };
     let (l, k, e) = (ratio(&learned), ratio(&kept), ratio(&exact));
