@@ -13,7 +13,7 @@
 
 // Words of a configuration ([`roadvo_configure`]): the camera's, the mount's and the odometer
 // settings', each in the core's order (`roadvo::wire::config_words`).
-#define ROADVO_CONFIG_WORDS 60
+#define ROADVO_CONFIG_WORDS 61
 
 // Words of an estimate's trace record ([`roadvo_trace_record`]): what the firmware examples
 // print and the host's `roadvo run --trace` writes, compared bit for bit.
@@ -21,17 +21,17 @@
 
 #if defined(__arm__)
 // Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 32-bit Arm target.
-#define ROADVO_ODOMETER_SIZE 56824
+#define ROADVO_ODOMETER_SIZE 56872
 #endif
 
 #if defined(__x86_64__)
 // Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 64-bit host.
-#define ROADVO_ODOMETER_SIZE 56928
+#define ROADVO_ODOMETER_SIZE 56984
 #endif
 
 // Bytes of a saved calibration ([`roadvo_calibration_save`], [`roadvo_calibration_restore`]):
 // what a firmware keeps in non-volatile memory across ignition cycles.
-#define ROADVO_CALIBRATION_BYTES 60
+#define ROADVO_CALIBRATION_BYTES 104
 
 // Alignment of an odometer's storage, bytes.
 #define ROADVO_ODOMETER_ALIGN 8
@@ -95,7 +95,7 @@ typedef enum RoadvoStatus {
   // more than a frame outside the image, or the lens distortion does not invert over the
   // frame.
   ROADVO_STATUS_IMPLAUSIBLE_CAMERA = 24,
-  // The bytes given are not a saved calibration (they do not start with its magic `rvc3`).
+  // The bytes given are not a saved calibration (they do not start with its magic `rvc4`).
   ROADVO_STATUS_CALIBRATION_NOT_SAVED = 25,
   // A saved calibration's checksum does not match its fields: the memory that kept it was
   // corrupted.
@@ -271,8 +271,8 @@ enum RoadvoStatus roadvo_flush(struct RoadvoOdometer *odometer, struct RoadvoEst
 // `odometer` as [`roadvo_odometer_init`] set it (or NULL).
 enum RoadvoStatus roadvo_reset(struct RoadvoOdometer *odometer);
 
-// Writes the mount the odometer has learned while driving (its calibration: the learned yaw
-// and pitch, their spreads, the road they rest on) to `bytes`, [`ROADVO_CALIBRATION_BYTES`] of
+// Writes the mount the odometer has learned while driving (its calibration: the learned yaw,
+// pitch and roll, their spreads, the road they rest on) to `bytes`, [`ROADVO_CALIBRATION_BYTES`] of
 // them, for non-volatile memory: save it before the ignition goes off, give it back with
 // [`roadvo_calibration_restore`] after [`roadvo_configure`] at the next start.
 //

@@ -31,7 +31,7 @@ use roadvo::{
 
 /// Words of a configuration ([`roadvo_configure`]): the camera's, the mount's and the odometer
 /// settings', each in the core's order (`roadvo::wire::config_words`).
-pub const ROADVO_CONFIG_WORDS: usize = 60;
+pub const ROADVO_CONFIG_WORDS: usize = 61;
 
 /// Words of an estimate's trace record ([`roadvo_trace_record`]): what the firmware examples
 /// print and the host's `roadvo run --trace` writes, compared bit for bit.
@@ -39,14 +39,14 @@ pub const ROADVO_TRACE_WORDS: usize = 11;
 
 /// Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 32-bit Arm target.
 #[cfg(target_arch = "arm")]
-pub const ROADVO_ODOMETER_SIZE: usize = 56_824;
+pub const ROADVO_ODOMETER_SIZE: usize = 56_872;
 /// Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 64-bit host.
 #[cfg(target_arch = "x86_64")]
-pub const ROADVO_ODOMETER_SIZE: usize = 56_928;
+pub const ROADVO_ODOMETER_SIZE: usize = 56_984;
 
 /// Bytes of a saved calibration ([`roadvo_calibration_save`], [`roadvo_calibration_restore`]):
 /// what a firmware keeps in non-volatile memory across ignition cycles.
-pub const ROADVO_CALIBRATION_BYTES: usize = 60;
+pub const ROADVO_CALIBRATION_BYTES: usize = 104;
 
 /// Alignment of an odometer's storage, bytes.
 pub const ROADVO_ODOMETER_ALIGN: usize = 8;
@@ -130,7 +130,7 @@ pub enum RoadvoStatus {
     /// more than a frame outside the image, or the lens distortion does not invert over the
     /// frame.
     ImplausibleCamera = 24,
-    /// The bytes given are not a saved calibration (they do not start with its magic `rvc3`).
+    /// The bytes given are not a saved calibration (they do not start with its magic `rvc4`).
     CalibrationNotSaved = 25,
     /// A saved calibration's checksum does not match its fields: the memory that kept it was
     /// corrupted.
@@ -734,8 +734,8 @@ pub unsafe extern "C" fn roadvo_reset(odometer: *mut RoadvoOdometer) -> RoadvoSt
     RoadvoStatus::Ok
 }
 
-/// Writes the mount the odometer has learned while driving (its calibration: the learned yaw
-/// and pitch, their spreads, the road they rest on) to `bytes`, [`ROADVO_CALIBRATION_BYTES`] of
+/// Writes the mount the odometer has learned while driving (its calibration: the learned yaw,
+/// pitch and roll, their spreads, the road they rest on) to `bytes`, [`ROADVO_CALIBRATION_BYTES`] of
 /// them, for non-volatile memory: save it before the ignition goes off, give it back with
 /// [`roadvo_calibration_restore`] after [`roadvo_configure`] at the next start.
 ///

@@ -3,7 +3,7 @@
 
 use super::*;
 use roadvo::wire::config_words;
-use roadvo::{Camera, Config, Learned, Mount};
+use roadvo::{Camera, Config, Learned, LearnedLine, Mount};
 
 /// Storage as a C program declares it.
 #[repr(C, align(8))]
@@ -276,7 +276,15 @@ fn a_calibration_saved_is_restored_and_bad_bytes_are_refused() {
     let learned = Calibration {
         yaw_ground: angle(0.5),
         yaw_image: angle(0.5),
-        pitch: angle(-0.3),
+        pitch_image: angle(-0.3),
+        pitch_road: Learned::NONE,
+        roll: LearnedLine {
+            mean_rad: 0.2f32.to_radians(),
+            spread_rad: 1.0f32.to_radians(),
+            weight: 400.0,
+            weight_sq: 1000.0,
+            ..LearnedLine::NONE
+        },
         distance_m: 200.0,
     };
     let saved = learned.to_bytes();

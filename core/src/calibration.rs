@@ -1,4 +1,4 @@
-//! The mount as learned while driving: corrections to the configured mount's yaw and pitch,
+//! The mount as learned while driving: corrections to the configured mount's yaw, pitch and roll,
 //! their spreads and the road they rest on, in a small plain value that an ECU can keep in
 //! non-volatile memory ([`Calibration::to_bytes`], [`Calibration::from_bytes`]) and give back
 //! to the odometer after the next ignition ([`crate::Odometer::restore_calibration`]).
@@ -18,14 +18,20 @@
 //!   but not on average. The whole image's motion holds that direction ([`crate::heading`]): a
 //!   camera pitched up by an error sees it below the horizontal of the mount file by the error.
 //!   Only frames whose inliers include points above the horizon measure it: on a scene of
-//!   nothing but road the direction trades against the pitch change and is biased.
+//!   nothing but road the direction trades against the pitch change and is biased. There the
+//!   road's own plane measures it: the whole image's pairs on the road move by its homography,
+//!   which with the camera's height known holds the body's pitch and roll to the road
+//!   ([`crate::heading::plane`]); the body's pitching and rolling average out.
+//! - **Roll.** From the road's plane alone, on every frame whose pairs on the road fit one
+//!   (the direction of travel does not see a roll).
 //!
 //! Each estimate keeps its measurements' robust running mean ([`Learned`]), weighed by the
 //! distance each frame covers (times the pairs that tell a sideways step, for the ground's) and
 //! forgetting over [`FORGET_M`] of road, so that it follows a camera refitted or knocked while
 //! the noise of single frames averages out. The odometer turns the mount by
-//! [`Calibration::applied_yaw_rad`] and [`Calibration::applied_pitch_rad`] (each estimate held
-//! short by a standard error) whenever one has moved by [`APPLY_STEP_RAD`].
+//! [`Calibration::applied_yaw_rad`], [`Calibration::applied_pitch_rad`] and
+//! [`Calibration::applied_roll_rad`] (each estimate held short by a standard error) whenever
+//! one has moved by [`APPLY_STEP_RAD`].
 
 /// Road over which the calibration forgets, metres: an estimate rests on about this much of
 /// the latest driving, enough to average a body's rolling and pitching out and to follow a
@@ -42,6 +48,8 @@ pub const APPLY_SDS: f32 = 1.0;
 /// The change of a learned angle, radians, that turns the mount again (0.02 deg: a tenth of
 /// the yaw error that costs 0.005 deg/m).
 pub const APPLY_STEP_RAD: f32 = 0.02 * core::f32::consts::PI / 180.0;
+
+use crate::heading::plane::Road;
 
 /// A frame's measurement is taken at most this many spreads from the estimate (a vehicle
 /// passing, a frame matched wrong).
@@ -122,30 +130,16 @@ impl Learned {
     /// forgetting). A frame shorter than [`MIN_DISTANCE_M`] or a measurement that is not
     /// finite is left out.
     fn take(&mut self, rad: f32, w: f32, distance_m: f32) {
-        let d = distance_m.abs();
-        let finite = d.is_finite() && rad.is_finite() && w.is_finite();
-        if !(finite && d >= MIN_DISTANCE_M && w > 0.0) {
+        let weights = (&mut self.weight, &mut self.weight_sq);
+        let Some((share, spread)) = admit(weights, self.spread_rad, w, distance_m, rad) else {
             return;
-        }
-        let keep = libm::expf(-d / FORGET_M);
-        self.weight = self.weight * keep + w;
-        self.weight_sq = self.weight_sq * keep * keep + w * w;
-        let share = w / self.weight;
-        let frames = self.weight * self.weight / self.weight_sq;
-        // Over the first frames the spread is not known yet: the assumed one bounds it below.
-        let spread = if frames < WARM_FRAMES {
-            self.spread_rad.max(START_SPREAD_RAD)
-        } else {
-            self.spread_rad
         };
         let bound = CLIP_SPREADS * spread;
         // max then min rather than clamp: no panic path for a bound the compiler cannot order.
         let r = (rad - self.rad).max(-bound).min(bound);
         let max = Calibration::MAX_RAD;
         self.rad = (self.rad + share * r).max(-max).min(max);
-        // The spread follows the clipped residuals, never collapsing on a few alike frames.
-        let var = (1.0 - share) * (spread * spread + share * r * r);
-        self.spread_rad = libm::sqrtf(var).max(MIN_SPREAD_RAD);
+        self.spread_rad = next_spread(share, spread, r);
     }
 
     /// Whether every field is finite and in its range.
@@ -161,6 +155,157 @@ impl Learned {
         [self.rad, self.spread_rad, self.weight, self.weight_sq]
     }
 }
+
+/// One angle of the mount as learned where the body leans with a load: the robust running
+/// least squares line of the frames' measurements against the load (for the roll, the
+/// lateral acceleration: a body rolls out of a bend by a few tenths of a degree a m/s^2), whose
+/// value at no load is the mount's. A drive of bends one way only cannot tell the two apart,
+/// and the estimate's standard error says so.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LearnedLine {
+    /// The weighted mean of the measurements, radians.
+    pub mean_rad: f32,
+    /// The weighted mean of the load (m/s^2 for the roll).
+    pub mean_load: f32,
+    /// The weighted variance of the load.
+    pub load_var: f32,
+    /// The weighted covariance of the load and the measurements, radians times the load.
+    pub covariance: f32,
+    /// The weighted spread of the measurements about the line, radians; 0 before a frame.
+    pub spread_rad: f32,
+    /// The sum of the frames' weights, forgetting included (metres).
+    pub weight: f32,
+    /// The sum of the squares of the frames' weights, forgetting included.
+    pub weight_sq: f32,
+}
+
+impl LearnedLine {
+    /// Nothing learned: the configured angle stands.
+    pub const NONE: Self = Self {
+        mean_rad: 0.0,
+        mean_load: 0.0,
+        load_var: 0.0,
+        covariance: 0.0,
+        spread_rad: 0.0,
+        weight: 0.0,
+        weight_sq: 0.0,
+    };
+
+    /// The line's slope, radians a unit of load: none until the loads spread over
+    /// [`MIN_LOAD_SPREAD`].
+    pub fn slope(&self) -> f32 {
+        if self.load_var > MIN_LOAD_SPREAD * MIN_LOAD_SPREAD {
+            self.covariance / self.load_var
+        } else {
+            0.0
+        }
+    }
+
+    /// The angle at no load and its standard error (a line's intercept: the spread over the
+    /// frames' effective number, widened by how far their mean load lies from none against
+    /// the loads' spread); `None` before a frame measured.
+    pub fn estimate(&self) -> Option<AngleEstimate> {
+        (self.weight > 0.0).then(|| {
+            let lever = self.mean_load * self.mean_load / self.load_var.max(MIN_LOAD_SPREAD_SQ);
+            AngleEstimate {
+                rad: self.mean_rad - self.slope() * self.mean_load,
+                sd_rad: self.spread_rad * libm::sqrtf(self.weight_sq * (1.0 + lever)) / self.weight,
+            }
+        })
+    }
+
+    /// Takes one frame's measurement `rad` at `load`, weighing `w`, over `distance_m` of road,
+    /// as [`Learned`] takes its: clipped at a few spreads from the line.
+    fn take(&mut self, rad: f32, load: f32, w: f32, distance_m: f32) {
+        if !load.is_finite() {
+            return;
+        }
+        let weights = (&mut self.weight, &mut self.weight_sq);
+        let Some((share, spread)) = admit(weights, self.spread_rad, w, distance_m, rad) else {
+            return;
+        };
+        let bound = CLIP_SPREADS * spread;
+        let dx = load - self.mean_load;
+        let line = self.mean_rad + self.slope() * dx;
+        let r = (rad - line).max(-bound).min(bound);
+        let dy = line + r - self.mean_rad;
+        let max = Calibration::MAX_RAD;
+        self.mean_rad = (self.mean_rad + share * dy).max(-max).min(max);
+        self.mean_load += share * dx;
+        self.load_var = (1.0 - share) * (self.load_var + share * dx * dx);
+        self.covariance = (1.0 - share) * (self.covariance + share * dx * dy);
+        self.spread_rad = next_spread(share, spread, r);
+    }
+
+    /// Whether every field is finite and in its range.
+    fn in_range(&self) -> bool {
+        let non_negative = [self.load_var, self.spread_rad, self.weight, self.weight_sq]
+            .iter()
+            .all(|v| v.is_finite() && *v >= 0.0);
+        let finite = [self.mean_load, self.covariance]
+            .iter()
+            .all(|v| v.is_finite());
+        non_negative
+            && finite
+            && self.mean_rad.is_finite()
+            && self.mean_rad.abs() <= Calibration::MAX_RAD
+    }
+
+    /// The fields in declaration order.
+    fn fields(&self) -> [f32; 7] {
+        [
+            self.mean_rad,
+            self.mean_load,
+            self.load_var,
+            self.covariance,
+            self.spread_rad,
+            self.weight,
+            self.weight_sq,
+        ]
+    }
+}
+
+/// A running estimate's weights (`weight`, `weight_sq`) taking a frame that weighs `w` over
+/// `distance_m` of road (the older ones forgotten): the frame's share of them and the spread
+/// its measurement `rad` is clipped at (over the first frames, when the spread is not known
+/// yet, the assumed one bounds `spread_rad` below). `None`, the weights untouched, for a frame
+/// shorter than [`MIN_DISTANCE_M`] or a value that is not finite.
+fn admit(
+    (weight, weight_sq): (&mut f32, &mut f32),
+    spread_rad: f32,
+    w: f32,
+    distance_m: f32,
+    rad: f32,
+) -> Option<(f32, f32)> {
+    let d = distance_m.abs();
+    let finite = d.is_finite() && rad.is_finite() && w.is_finite();
+    if !(finite && d >= MIN_DISTANCE_M && w > 0.0) {
+        return None;
+    }
+    let keep = libm::expf(-d / FORGET_M);
+    *weight = *weight * keep + w;
+    *weight_sq = *weight_sq * keep * keep + w * w;
+    let frames = *weight * *weight / *weight_sq;
+    let spread = if frames < WARM_FRAMES {
+        spread_rad.max(START_SPREAD_RAD)
+    } else {
+        spread_rad
+    };
+    Some((w / *weight, spread))
+}
+
+/// The spread after a frame of `share` whose clipped residual is `r`: it follows the clipped
+/// residuals, never collapsing on a few alike frames.
+fn next_spread(share: f32, spread: f32, r: f32) -> f32 {
+    let var = (1.0 - share) * (spread * spread + share * r * r);
+    libm::sqrtf(var).max(MIN_SPREAD_RAD)
+}
+
+/// Least spread of the loads for a line's slope (m/s^2 of lateral acceleration for the roll):
+/// under it, frames at one load cannot tell a slope.
+const MIN_LOAD_SPREAD: f32 = 0.5;
+const MIN_LOAD_SPREAD_SQ: f32 = MIN_LOAD_SPREAD * MIN_LOAD_SPREAD;
 
 /// One learned angle: its value and its standard error.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -190,7 +335,8 @@ fn held_short(estimate: Option<AngleEstimate>, settled: bool) -> f32 {
     }
 }
 
-/// The mount learned while driving: the yaw from two kinds of evidence, the pitch from one.
+/// The mount learned while driving: the yaw and the pitch from two kinds of evidence each, the
+/// roll from one.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Calibration {
@@ -199,8 +345,15 @@ pub struct Calibration {
     pub yaw_ground: Learned,
     /// The yaw the whole image's direction of travel shows, as `yaw_ground`.
     pub yaw_image: Learned,
-    /// The pitch, nose up: the camera looks `pitch.rad` further up than the mount file says.
-    pub pitch: Learned,
+    /// The pitch the whole image's direction of travel shows, nose up: the camera looks
+    /// `pitch_image.rad` further up than the mount file says.
+    pub pitch_image: Learned,
+    /// The pitch the road's plane shows, on frames that see nothing but road, as
+    /// `pitch_image`.
+    pub pitch_road: Learned,
+    /// The roll the road's plane shows, left side up, against the lateral acceleration: at
+    /// none, the camera is rolled that much further left side up than the mount file says.
+    pub roll: LearnedLine,
     /// Road driven on the frames that measured, metres, all of it.
     pub distance_m: f32,
 }
@@ -227,7 +380,7 @@ pub enum CalibrationError {
 impl core::fmt::Display for CalibrationError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.write_str(match self {
-            Self::WrongLength => "a saved calibration is 60 bytes long",
+            Self::WrongLength => "a saved calibration is 104 bytes long",
             Self::WrongMagic => "not a saved roadvo calibration (or one of another version)",
             Self::Corrupted => "the saved calibration's checksum does not match",
             Self::OutOfRange => "a saved calibration value is not finite or out of range",
@@ -249,18 +402,21 @@ impl Calibration {
     pub const NONE: Self = Self {
         yaw_ground: Learned::NONE,
         yaw_image: Learned::NONE,
-        pitch: Learned::NONE,
+        pitch_image: Learned::NONE,
+        pitch_road: Learned::NONE,
+        roll: LearnedLine::NONE,
         distance_m: 0.0,
     };
 
-    /// Bytes of [`to_bytes`](Self::to_bytes): the magic, thirteen `f32`, a checksum.
-    pub const BYTES: usize = 60;
+    /// Bytes of [`to_bytes`](Self::to_bytes): the magic, twenty-four `f32`, a checksum.
+    pub const BYTES: usize = 104;
 
-    /// The first four bytes of a saved calibration (`rvc3`; `rvc1` and `rvc2`, without the
-    /// image's yaw, are refused: the odometer learns again within minutes).
-    pub const MAGIC: [u8; 4] = *b"rvc3";
+    /// The first four bytes of a saved calibration (`rvc4`; the older `rvc1` to `rvc3`,
+    /// without the road's pitch and roll, are refused: the odometer learns again within
+    /// minutes).
+    pub const MAGIC: [u8; 4] = *b"rvc4";
 
-    /// Largest correction of either angle, radians (10 deg): past it the mount file is wrong,
+    /// Largest correction of any angle, radians (10 deg): past it the mount file is wrong,
     /// not worn.
     pub const MAX_RAD: f32 = 10.0 * core::f32::consts::PI / 180.0;
 
@@ -275,21 +431,25 @@ impl Calibration {
     /// tighter and stands on evidence the road's plane does not bend); `None` before either
     /// measured.
     pub fn yaw(&self) -> Option<AngleEstimate> {
-        match (self.yaw_ground.estimate(), self.yaw_image.estimate()) {
-            (Some(a), Some(b)) => {
-                let (wa, wb) = (1.0 / (a.sd_rad * a.sd_rad), 1.0 / (b.sd_rad * b.sd_rad));
-                Some(AngleEstimate {
-                    rad: (wa * a.rad + wb * b.rad) / (wa + wb),
-                    sd_rad: 1.0 / libm::sqrtf(wa + wb),
-                })
-            }
-            (a, b) => a.or(b),
-        }
+        weighed(&self.yaw_ground, &self.yaw_image)
     }
 
-    /// The pitch learned, radians, and its standard error; `None` before a frame measured.
+    /// The pitch learned, radians, and its standard error: the image's and the road's
+    /// estimates weighed by their variances (each from its own frames); `None` before either
+    /// measured.
     pub fn pitch(&self) -> Option<AngleEstimate> {
-        self.pitch.estimate()
+        weighed(&self.pitch_image, &self.pitch_road)
+    }
+
+    /// The roll learned, radians, and its standard error; `None` before a frame measured.
+    pub fn roll(&self) -> Option<AngleEstimate> {
+        self.roll.estimate()
+    }
+
+    /// The roll correction to turn the mount by, radians, as
+    /// [`applied_yaw_rad`](Self::applied_yaw_rad).
+    pub fn applied_roll_rad(&self) -> f32 {
+        held_short(self.roll(), self.settled())
     }
 
     /// The pitch correction to turn the mount by, radians, as
@@ -327,10 +487,31 @@ impl Calibration {
             .take(applied_yaw_rad - azimuth_rad, distance_m.abs(), distance_m);
     }
 
+    /// Takes one frame's road plane, seen through the mount turned by `applied` (the yaw
+    /// unused), over `distance_m` at a lateral acceleration of `lateral_m_s2` (to the left): as
+    /// `(pitch, roll)` say, its pitch (on a frame that sees nothing but road) and its roll.
+    pub fn measure_road(
+        &mut self,
+        road: &Road,
+        (distance_m, lateral_m_s2): (f32, f32),
+        applied: Angles,
+        (pitch, roll): (bool, bool),
+    ) {
+        if pitch {
+            self.pitch_road
+                .take(applied.pitch + road.pitch_rad, distance_m.abs(), distance_m);
+        }
+        if roll {
+            let rad = applied.roll + road.roll_rad;
+            self.roll
+                .take(rad, lateral_m_s2, distance_m.abs(), distance_m);
+        }
+    }
+
     /// Takes one frame's direction of travel, `elevation_rad` above the horizontal of the
     /// mount turned by `applied_pitch_rad`, over `distance_m`.
     pub fn measure_pitch(&mut self, elevation_rad: f32, distance_m: f32, applied_pitch_rad: f32) {
-        self.pitch.take(
+        self.pitch_image.take(
             applied_pitch_rad - elevation_rad,
             distance_m.abs(),
             distance_m,
@@ -341,21 +522,29 @@ impl Calibration {
     /// [`MAX_RAD`](Self::MAX_RAD), the spreads, weights and distance not negative.
     pub fn check(&self) -> Result<(), CalibrationError> {
         let distance = self.distance_m.is_finite() && self.distance_m >= 0.0;
-        let angles = [&self.yaw_ground, &self.yaw_image, &self.pitch];
-        if !(distance && angles.iter().all(|a| a.in_range())) {
+        let angles = [
+            &self.yaw_ground,
+            &self.yaw_image,
+            &self.pitch_image,
+            &self.pitch_road,
+        ];
+        if !(distance && angles.iter().all(|a| a.in_range()) && self.roll.in_range()) {
             return Err(CalibrationError::OutOfRange);
         }
         Ok(())
     }
 
-    /// The value as bytes for non-volatile memory: [`MAGIC`](Self::MAGIC), the thirteen fields
-    /// as little-endian `f32` in declaration order (the ground's yaw's four, the image's yaw's
-    /// four, the pitch's four, the distance), and a 32-bit checksum (FNV-1a) of the rest.
+    /// The value as bytes for non-volatile memory: [`MAGIC`](Self::MAGIC), the twenty-four
+    /// fields as little-endian `f32` in declaration order (four for each of the ground's yaw,
+    /// the image's yaw, the image's pitch and the road's pitch, seven for the roll, then the
+    /// distance), and a 32-bit checksum (FNV-1a) of the rest.
     pub fn to_bytes(&self) -> [u8; Self::BYTES] {
         let fields = self.yaw_ground.fields().into_iter();
         let fields = fields
             .chain(self.yaw_image.fields())
-            .chain(self.pitch.fields());
+            .chain(self.pitch_image.fields())
+            .chain(self.pitch_road.fields())
+            .chain(self.roll.fields());
         let mut out = [0u8; Self::BYTES];
         let head = Self::MAGIC
             .into_iter()
@@ -397,16 +586,64 @@ impl Calibration {
             weight: f.next().unwrap_or(f32::NAN),
             weight_sq: f.next().unwrap_or(f32::NAN),
         };
-        let (yaw_ground, yaw_image, pitch) = (learned(), learned(), learned());
+        let (yaw_ground, yaw_image) = (learned(), learned());
+        let (pitch_image, pitch_road) = (learned(), learned());
+        let mut next = || f.next().unwrap_or(f32::NAN);
+        let roll = LearnedLine {
+            mean_rad: next(),
+            mean_load: next(),
+            load_var: next(),
+            covariance: next(),
+            spread_rad: next(),
+            weight: next(),
+            weight_sq: next(),
+        };
         let c = Self {
             yaw_ground,
             yaw_image,
-            pitch,
-            distance_m: f.next().unwrap_or(f32::NAN),
+            pitch_image,
+            pitch_road,
+            roll,
+            distance_m: next(),
         };
         c.check()?;
         Ok(c)
     }
+}
+
+/// Two estimates of one angle weighed by their variances; either where the other has not
+/// measured, `None` before both.
+fn weighed(a: &Learned, b: &Learned) -> Option<AngleEstimate> {
+    match (a.estimate(), b.estimate()) {
+        (Some(a), Some(b)) => {
+            let (wa, wb) = (1.0 / (a.sd_rad * a.sd_rad), 1.0 / (b.sd_rad * b.sd_rad));
+            Some(AngleEstimate {
+                rad: (wa * a.rad + wb * b.rad) / (wa + wb),
+                sd_rad: 1.0 / libm::sqrtf(wa + wb),
+            })
+        }
+        (a, b) => a.or(b),
+    }
+}
+
+/// The mount's angles the calibration turns, radians.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Angles {
+    /// Yaw, counter-clockwise seen from above.
+    pub yaw: f32,
+    /// Pitch, nose up.
+    pub pitch: f32,
+    /// Roll, left side up.
+    pub roll: f32,
+}
+
+impl Angles {
+    /// None.
+    pub const ZERO: Self = Self {
+        yaw: 0.0,
+        pitch: 0.0,
+        roll: 0.0,
+    };
 }
 
 /// FNV-1a over `bytes`, 32 bits.
@@ -432,6 +669,89 @@ mod tests {
         }
     }
 
+    /// A frame's road plane: the body's pitch and roll to it.
+    fn road(pitch_rad: f32, roll_rad: f32) -> Road {
+        Road {
+            pitch_rad,
+            roll_rad,
+            distance_m: 0.8,
+            pairs: 20,
+            rms_px: 0.2,
+        }
+    }
+
+    #[test]
+    fn the_road_s_plane_measures_the_roll_and_on_road_alone_the_pitch() {
+        // A mount file rolled 1 deg too far left side up and pitched 0.5 deg too far down: the
+        // road's plane is seen rolled -1 deg and pitched +0.5 deg, +-0.5 deg a frame as the body
+        // sways. Half-way the mount is turned by the applied estimates, which the plane then
+        // shows less of.
+        let mut c = Calibration::NONE;
+        let mut next = crate::test_rng::uniform(13u32);
+        let mut applied = Angles::ZERO;
+        for k in 0..400 {
+            if k == 200 {
+                c.drive(200.0);
+                applied.pitch = c.applied_pitch_rad();
+                applied.roll = c.applied_roll_rad();
+                assert!(
+                    applied.roll < deg(-0.8) && applied.roll > deg(-1.0),
+                    "{c:?}"
+                );
+                assert!(
+                    applied.pitch > deg(0.3) && applied.pitch < deg(0.5),
+                    "{c:?}"
+                );
+            }
+            let sway = |next: &mut dyn FnMut() -> f32| deg(1.0) * (next() - 0.5);
+            let seen = road(
+                deg(0.5) - applied.pitch + sway(&mut next),
+                deg(-1.0) - applied.roll + sway(&mut next),
+            );
+            c.measure_road(&seen, (0.8, 0.0), applied, (true, true));
+        }
+        let (pitch, roll) = (c.pitch().unwrap(), c.roll().unwrap());
+        assert!((pitch.rad - deg(0.5)).abs() < deg(0.05), "{c:?}");
+        assert!((roll.rad + deg(1.0)).abs() < deg(0.05), "{c:?}");
+        assert_eq!(c.pitch_image, Learned::NONE);
+        // A frame that sees beyond the road leaves the pitch to the image's direction of travel;
+        // with `learn_roll` off the roll stands.
+        let before = c;
+        let far_road = road(deg(3.0), deg(3.0));
+        c.measure_road(&far_road, (0.8, 0.0), applied, (false, false));
+        assert_eq!(c, before);
+    }
+
+    #[test]
+    fn the_roll_is_the_road_s_at_no_lateral_acceleration() {
+        // A mount rolled 0.5 deg; the body leans 0.4 deg out of a bend per m/s^2 (right bends:
+        // negative acceleration, left side down). Bends of one way only: the lean cannot be told
+        // from the mount, and the estimate's standard error says so, which keeps it unapplied.
+        let lean = |a: f32| deg(0.5) + deg(0.4) * a;
+        let mut c = Calibration::NONE;
+        let mut next = crate::test_rng::uniform(17u32);
+        c.drive(100.0);
+        for _ in 0..60 {
+            let a = -3.8 + 0.2 * (next() - 0.5);
+            let seen = road(0.0, lean(a) + deg(0.2) * (next() - 0.5));
+            c.measure_road(&seen, (1.0, a), Angles::ZERO, (false, true));
+        }
+        let one_way = c.roll().unwrap();
+        assert!(one_way.sd_rad > deg(1.0), "{one_way:?}");
+        assert_eq!(c.applied_roll_rad(), 0.0);
+        // Then straight road and the other way: the line through them meets the mount's roll.
+        for k in 0..300 {
+            let a = [0.0, 2.5, -1.0][k % 3] + 0.2 * (next() - 0.5);
+            let seen = road(0.0, lean(a) + deg(0.2) * (next() - 0.5));
+            c.measure_road(&seen, (1.0, a), Angles::ZERO, (false, true));
+        }
+        let r = c.roll().unwrap();
+        assert!((r.rad - deg(0.5)).abs() < deg(0.05), "{r:?} {c:?}");
+        assert!(r.sd_rad < deg(0.05), "{r:?}");
+        assert!((c.roll.slope() - deg(0.4)).abs() < deg(0.05), "{c:?}");
+        assert_eq!(c.pitch(), None);
+    }
+
     #[test]
     fn noisy_frames_settle_on_their_mean_and_an_outlier_moves_it_little() {
         let mut c = Calibration::NONE;
@@ -451,7 +771,8 @@ mod tests {
         let before = c.yaw_ground.rad;
         c.measure_yaw(step(deg(-30.0) * 0.9), 0.9, 0.0);
         assert!((c.yaw_ground.rad - before).abs() < deg(0.01), "{c:?}");
-        assert_eq!(c.pitch, Learned::NONE);
+        assert_eq!(c.pitch(), None);
+        assert_eq!(c.roll(), None);
     }
 
     #[test]
@@ -485,8 +806,8 @@ mod tests {
             let elevation = applied - deg(1.0) + deg(1.0) * (next() - 0.5);
             c.measure_pitch(elevation, 0.8, applied);
         }
-        assert!((c.pitch.rad - deg(1.0)).abs() < deg(0.05), "{c:?}");
-        assert!(c.pitch.sd_rad().unwrap() < deg(0.05), "{c:?}");
+        assert!((c.pitch_image.rad - deg(1.0)).abs() < deg(0.05), "{c:?}");
+        assert!(c.pitch_image.sd_rad().unwrap() < deg(0.05), "{c:?}");
         assert_eq!(c.yaw(), None);
         // Not settled (no road counted): nothing applied.
         assert_eq!(
@@ -558,6 +879,13 @@ mod tests {
             c.measure_yaw(step(0.01 * (k % 3) as f32), 0.8, 0.0);
             c.measure_yaw_image(deg(0.2) * (k % 4) as f32, 0.8, 0.0);
             c.measure_pitch(deg(0.1) * (k % 5) as f32, 0.8, 0.0);
+            let road = road(deg(-0.1) * (k % 6) as f32, deg(0.05) * (k % 7) as f32);
+            c.measure_road(
+                &road,
+                (0.8, 0.1 * (k % 9) as f32),
+                Angles::ZERO,
+                (true, true),
+            );
         }
         let bytes = c.to_bytes();
         assert_eq!(Calibration::from_bytes(&bytes), Ok(c));
@@ -592,9 +920,9 @@ mod tests {
                 ..c
             },
             Calibration {
-                pitch: Learned {
-                    spread_rad: -1.0,
-                    ..c.pitch
+                roll: LearnedLine {
+                    load_var: -1.0,
+                    ..c.roll
                 },
                 ..c
             },

@@ -90,7 +90,7 @@ pub mod tracks;
 pub mod vote;
 pub mod wire;
 
-pub use calibration::{AngleEstimate, Calibration, CalibrationError, Learned};
+pub use calibration::{AngleEstimate, Calibration, CalibrationError, Learned, LearnedLine};
 pub use config::{Config, ConfigError, ImageRoi, Method, Settings, ValidConfig};
 pub use frame::{Frame, ImageSize, SliceFrame};
 pub use harris::{Corner, Corners, HarrisScratch};

@@ -1,7 +1,7 @@
 //! The per-frame flow: [`Odometer::process`] reads top-down as the method's steps, numbered as
 //! in `docs/method.md`.
 
-use crate::calibration::{self, Calibration, CalibrationError};
+use crate::calibration::{self, Angles, Calibration, CalibrationError};
 use crate::config::{ConfigError, ValidConfig};
 use crate::frame::Frame;
 use crate::harris::{self, Corners, HarrisScratch};
@@ -121,20 +121,6 @@ pub struct Estimate {
     pub quality: Quality,
 }
 
-/// A yaw and a pitch of the mount, radians.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Angles {
-    yaw: f32,
-    pitch: f32,
-}
-
-impl Angles {
-    const ZERO: Self = Self {
-        yaw: 0.0,
-        pitch: 0.0,
-    };
-}
-
 /// What carries from one frame to the next, whatever the method.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct State {
@@ -197,10 +183,10 @@ pub struct Odometer<
     estimator: Estimator<MAX_TRACKS, MAX_FEATURES, GRID, IMAGE_FEATURES>,
     /// The mount learned while driving, kept across [`reset`](Self::reset).
     calibration: Calibration,
-    /// The configured mount's yaw and pitch, radians: `config` holds them turned by
+    /// The configured mount's yaw, pitch and roll, radians: `config` holds them turned by
     /// `applied_rad`.
     mount_rad: Angles,
-    /// The calibration's yaw and pitch that `config`'s mount is turned by, radians.
+    /// The calibration's yaw, pitch and roll that `config`'s mount is turned by, radians.
     applied_rad: Angles,
 }
 
@@ -270,6 +256,7 @@ impl<
         self.mount_rad = Angles {
             yaw: mount.yaw_rad,
             pitch: mount.pitch_rad,
+            roll: mount.roll_rad,
         };
         self.applied_rad = Angles::ZERO;
         self.calibration = Calibration::NONE;
@@ -474,17 +461,30 @@ impl<
         self.state.last_timestamp = Some(timestamp);
         // 12. Calibrate: a trusted frame's step across the chord feeds the learned yaw, the whole
         // image's direction of travel on a frame that sees more than the road the learned yaw
-        // and pitch; they turn the mount once it has moved far enough.
+        // and pitch, the road's plane the learned roll, and the pitch on a frame that sees
+        // nothing but road; they turn the mount once it has moved far enough.
         let s = self.config.settings();
         let step = sideways.filter(|_| trusted && s.learn_yaw);
         let travel = image
             .filter(|i| (s.learn_pitch || s.learn_yaw) && i.heading_change_rad.is_some())
             .filter(|i| i.inliers_above_horizon >= calibration::MIN_INLIERS_ABOVE_HORIZON);
-        if step.is_some() || travel.is_some() {
+        let road_pitch = s.learn_pitch && travel.is_none();
+        let road = image
+            .and_then(|i| i.road)
+            .filter(|_| road_pitch || s.learn_roll);
+        if step.is_some() || travel.is_some() || road.is_some() {
             let (d, applied) = (motion.distance_m, self.applied_rad);
             self.calibration.drive(d);
             if let Some(step) = step {
                 self.calibration.measure_yaw(step, d, applied.yaw);
+            }
+            if let Some(road) = road {
+                // The lateral acceleration the body leans against: speed times turn rate.
+                let dt = interval.secs_f32();
+                let lateral_m_s2 = d * motion.heading_change_rad / (dt * dt);
+                let (pitch, roll) = (road_pitch, s.learn_roll);
+                self.calibration
+                    .measure_road(&road, (d, lateral_m_s2), applied, (pitch, roll));
             }
             if let Some(i) = travel {
                 if s.learn_pitch {
@@ -505,23 +505,28 @@ impl<
         })
     }
 
-    /// Turns the configured mount by the calibration's applied yaw and pitch where either has
-    /// moved by [`calibration::APPLY_STEP_RAD`] from the one in use; a turned mount that does
+    /// Turns the configured mount by the calibration's applied yaw, pitch and roll where one
+    /// has moved by [`calibration::APPLY_STEP_RAD`] from the one in use; a turned mount that does
     /// not validate leaves the one in use.
     fn apply_calibration(&mut self) {
         let c = &self.calibration;
         let applied = Angles {
             yaw: c.applied_yaw_rad(),
             pitch: c.applied_pitch_rad(),
+            roll: c.applied_roll_rad(),
         };
         let moved = |a: f32, b: f32| (a - b).abs() >= calibration::APPLY_STEP_RAD;
         let (now, m) = (self.applied_rad, self.mount_rad);
-        if !moved(applied.yaw, now.yaw) && !moved(applied.pitch, now.pitch) {
+        if !moved(applied.yaw, now.yaw)
+            && !moved(applied.pitch, now.pitch)
+            && !moved(applied.roll, now.roll)
+        {
             return;
         }
         let mut config = *self.config.config();
         config.mount.yaw_rad = m.yaw + applied.yaw;
         config.mount.pitch_rad = m.pitch + applied.pitch;
+        config.mount.roll_rad = m.roll + applied.roll;
         if let Ok(turned) = config.validate() {
             self.config = turned;
             self.estimator.remount(&self.config);
@@ -603,7 +608,7 @@ impl<
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calibration::Learned;
+    use crate::calibration::{Learned, LearnedLine};
     use crate::config::tests::kitti_config;
     use crate::frame::SliceFrame;
     use std::vec;
@@ -685,7 +690,17 @@ mod tests {
         let learned = Calibration {
             yaw_ground: angle(0.4),
             yaw_image: angle(0.5),
-            pitch: angle(-0.7),
+            pitch_image: angle(-0.7),
+            pitch_road: angle(-0.6),
+            roll: LearnedLine {
+                mean_rad: 0.3f32.to_radians(),
+                mean_load: 0.1,
+                load_var: 2.0,
+                covariance: 0.01,
+                spread_rad: 0.01,
+                weight: 100.0,
+                weight_sq: 10.0,
+            },
             distance_m: 100.0,
         };
         let mut odo: Odometer = Odometer::UNCONFIGURED;
@@ -697,9 +712,9 @@ mod tests {
         let cfg = kitti_config().validate().unwrap();
         odo.configure(cfg).unwrap();
         let nan = Calibration {
-            pitch: Learned {
-                weight: f32::NAN,
-                ..learned.pitch
+            roll: LearnedLine {
+                covariance: f32::NAN,
+                ..learned.roll
             },
             ..learned
         };

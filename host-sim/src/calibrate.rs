@@ -129,6 +129,7 @@ fn cost(
             // The mount as given: the reference the online calibration is compared with.
             moved.settings.learn_yaw = false;
             moved.settings.learn_pitch = false;
+            moved.settings.learn_roll = false;
             let Ok(config) = config_for(seq, &moved, method) else {
                 return Ok(f64::INFINITY);
             };

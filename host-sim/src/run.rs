@@ -439,6 +439,8 @@ pub struct QualityLine {
     learned_yaw_rad: f32,
     /// The learned correction of the mount's pitch after the frame, radians.
     learned_pitch_rad: f32,
+    /// The learned correction of the mount's roll after the frame, radians.
+    learned_roll_rad: f32,
     /// The road it rests on, metres.
     learned_road_m: f32,
 }
@@ -473,6 +475,7 @@ impl QualityLine {
             image_heading: q.image_heading,
             learned_yaw_rad: c.yaw().map_or(0.0, |e| e.rad),
             learned_pitch_rad: c.pitch().map_or(0.0, |e| e.rad),
+            learned_roll_rad: c.roll().map_or(0.0, |e| e.rad),
             learned_road_m: c.distance_m,
         }
     }
@@ -592,7 +595,8 @@ pub fn run(
     Ok(RunOutput {
         estimates,
         smooth_lag_frames: trajectory.lag_frames(),
-        // Through the mount as the odometer learned it (`learn_yaw`, `learn_pitch`).
+        // Through the mount as the odometer learned it (`learn_yaw`, `learn_pitch`,
+        // `learn_roll`).
         poses: fill_skipped(&trajectory.into_poses(&ran.config), &frames_run),
         ran,
     })

@@ -99,6 +99,7 @@ def test_the_odometer_frame_by_frame_is_the_unsmoothed_run(tmp_path):
     # drive's end, the odometer frame by frame through the one learned so far.
     mount.set("learn_yaw=false")
     mount.set("learn_pitch=false")
+    mount.set("learn_roll=false")
     mount.write(tmp_path / "mount.toml")
     poses = roadvo.run(SEQ, tmp_path / "mount.toml")
 

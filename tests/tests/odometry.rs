@@ -596,9 +596,9 @@ fn in_town_a_pitch_error_in_the_mount_file_is_learned_while_driving() {
     // turns the mount back within the first 60 m or so (learned -0.94 deg, 1.008).
     let [exact, _, _, learned, kept] = town(&[], 120);
     let c = learned.run.ran.calibration;
-    let pitch_deg = c.pitch.rad.to_degrees();
+    let pitch_deg = c.pitch_image.rad.to_degrees();
     assert!((pitch_deg + 1.0).abs() < 0.25, "{c:?}");
-    assert_eq!(kept.run.ran.calibration.pitch, roadvo::Learned::NONE);
+    assert_eq!(kept.run.ran.calibration.pitch(), None);
     assert_eq!(exact.run.ran.calibration.applied_pitch_rad(), 0.0);
     let ratio = |d: &Drive| {
         let (est, truth) = distances(&d.run, &d.truth, 80..120);

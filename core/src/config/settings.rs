@@ -213,9 +213,13 @@ settings! {
         /// file's yaw stands.
         learn_yaw: bool = val(true) => "learn_yaw";
         /// Pitch vote with `image_heading`: the mount's pitch learned while driving (true): the
-        /// whole image's direction of travel, on frames that see more than the road, averaged
-        /// over the road, turns the configured mount ([`crate::calibration`]); false: the mount
-        /// file's pitch stands.
+        /// whole image's direction of travel on frames that see more than the road, the road's
+        /// plane under its pairs on frames that see nothing else, averaged over the road, turn
+        /// the configured mount ([`crate::calibration`]); false: the mount file's pitch stands.
         learn_pitch: bool = val(true) => "learn_pitch";
+        /// Pitch vote with `image_heading`: the mount's roll learned while driving (true): the
+        /// road's plane under the whole image's pairs on it, averaged over the road, turns the
+        /// configured mount ([`crate::calibration`]); false: the mount file's roll stands.
+        learn_roll: bool = val(true) => "learn_roll";
     }
 }

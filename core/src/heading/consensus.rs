@@ -56,10 +56,11 @@ const FULL_VOTE: f32 = 64.0;
 const STEPS: usize = 6;
 const RESELECT_AFTER: [usize; 2] = [1, 3];
 const INLIER_SCALE: [f32; 3] = [3.0, 2.0, 1.0];
-/// How far the direction of travel leaves the arc's chord, one standard deviation, radians (1
-/// deg: the real camera path leaves the ideal arc by 0.5-1.2 deg rms, BRIEF §8), and how well a
-/// pair is placed, pixels: together they weigh the refinement's prior on the direction (its
-/// azimuth and elevation about the chord) against the pairs. Where the pairs determine the
+/// How far the direction of travel leaves the arc's chord, one standard deviation, radians (6
+/// deg: the real camera path leaves the ideal arc by 0.5-1.2 deg rms, BRIEF §8, and the chord
+/// hangs on a distance that can be wrong by more; 2 deg turned KITTI 10's slow start), and how
+/// well a pair is placed, pixels: together they weigh the refinement's prior on the direction
+/// (its azimuth and elevation about the chord) against the pairs. Where the pairs determine the
 /// direction the prior hardly matters; where they cannot (all on one plane: road alone) it
 /// keeps the direction near the chord, so that a turn is not read as a sideways step (measured
 /// on the s-course: 20 % too much turn in its bends without it).
@@ -425,7 +426,7 @@ pub fn distance_factor<const K: usize>(
 }
 
 /// Cauchy's weight of a residual `r` at scale `scale` (both pixels).
-fn cauchy(r: f32, scale: f32) -> f32 {
+pub(crate) fn cauchy(r: f32, scale: f32) -> f32 {
     1.0 / (1.0 + (r / scale) * (r / scale))
 }
 
@@ -474,13 +475,13 @@ impl Median {
 
 /// Solves `a x = b` for a symmetric positive definite `a` (Cholesky), damped a little so that a
 /// direction the correspondences do not see stays where it is. `None` if it is singular.
-fn solve(mut a: [[f32; 5]; 5], b: [f32; 5]) -> Option<[f32; 5]> {
-    let trace: f32 = (0..5).map(|k| a[k][k]).sum();
+pub(crate) fn solve<const N: usize>(mut a: [[f32; N]; N], b: [f32; N]) -> Option<[f32; N]> {
+    let trace: f32 = (0..N).map(|k| a[k][k]).sum();
     for (k, row) in a.iter_mut().enumerate() {
         row[k] += 1e-6 * trace + 1e-9;
     }
-    let mut l = [[0.0f32; 5]; 5];
-    for i in 0..5 {
+    let mut l = [[0.0f32; N]; N];
+    for i in 0..N {
         for j in 0..=i {
             let sum: f32 = (0..j).map(|k| l[i][k] * l[j][k]).sum();
             if i == j {
@@ -494,14 +495,14 @@ fn solve(mut a: [[f32; 5]; 5], b: [f32; 5]) -> Option<[f32; 5]> {
             }
         }
     }
-    let mut y = [0.0f32; 5];
-    for i in 0..5 {
+    let mut y = [0.0f32; N];
+    for i in 0..N {
         let sum: f32 = (0..i).map(|k| l[i][k] * y[k]).sum();
         y[i] = (b[i] - sum) / l[i][i];
     }
-    let mut x = [0.0f32; 5];
-    for i in (0..5).rev() {
-        let sum: f32 = (i + 1..5).map(|k| l[k][i] * x[k]).sum();
+    let mut x = [0.0f32; N];
+    for i in (0..N).rev() {
+        let sum: f32 = (i + 1..N).map(|k| l[k][i] * x[k]).sum();
         x[i] = (y[i] - sum) / l[i][i];
     }
     x.iter().all(|v| v.is_finite()).then_some(x)

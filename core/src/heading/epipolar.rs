@@ -80,6 +80,26 @@ fn rot_z(a: f32) -> Matrix3<f32> {
     Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
 }
 
+/// The body's attitude to the road, `tilt`: a vector of the vehicle frame in the road's.
+pub(crate) fn tilt_rotation(tilt: Tilt) -> Matrix3<f32> {
+    rot_y(-tilt.pitch) * rot_x(tilt.roll)
+}
+
+/// The second vehicle frame's rotation in the first under motion `p`.
+fn body_turn(p: &Params) -> Matrix3<f32> {
+    rot_z(p.alpha) * rot_y(-p.pitch) * rot_x(p.roll)
+}
+
+/// The second vehicle frame in the first under motion `p` over `distance_m`: its rotation
+/// (turned, pitched: a turn about y by -pitch lifts the nose, rolled) and its travel, metres.
+fn vehicle_motion(p: &Params, distance_m: f32) -> (Matrix3<f32>, Vector3<f32>) {
+    let q = body_turn(p);
+    let az = 0.5 * p.alpha + p.azimuth;
+    let (ce, se) = (libm::cosf(p.elevation), libm::sinf(p.elevation));
+    let travel = Vector3::new(ce * libm::cosf(az), ce * libm::sinf(az), se) * distance_m;
+    (q, travel)
+}
+
 impl Model {
     /// No camera: the placeholder of an unconfigured odometer.
     pub const ZERO: Self = Self {
@@ -133,24 +153,59 @@ impl Model {
     /// The camera's rotation under motion `p`: a ray of the first frame turned into the
     /// second's (the whole motion of a point far away).
     pub fn rotation(&self, p: &Params) -> Matrix3<f32> {
-        let q = rot_z(p.alpha) * rot_y(-p.pitch) * rot_x(p.roll);
-        self.m.transpose() * q.transpose() * self.m
+        self.m.transpose() * body_turn(p).transpose() * self.m
     }
 
     /// The essential matrix of motion `p` over `distance_m`: `x2' E x1 = 0` for the rays of a
     /// static point in the first and second frame.
     pub fn essential(&self, p: &Params, distance_m: f32) -> Matrix3<f32> {
-        // The second vehicle frame in the first: turned, pitched (a turn about y by -pitch
-        // lifts the nose), rolled.
-        let q = rot_z(p.alpha) * rot_y(-p.pitch) * rot_x(p.roll);
-        let az = 0.5 * p.alpha + p.azimuth;
-        let (ce, se) = (libm::cosf(p.elevation), libm::sinf(p.elevation));
-        let travel = Vector3::new(ce * libm::cosf(az), ce * libm::sinf(az), se) * distance_m;
+        let (q, travel) = vehicle_motion(p, distance_m);
         let qt = q.transpose();
         // X2 = M' Q' (M X1 + c - T) - M' c.
         let r = self.m.transpose() * qt * self.m;
         let t = self.m.transpose() * (qt * (self.c - travel) - self.c);
         t.cross_matrix() * r
+    }
+}
+
+/// The road's plane under the first frame: the body's pitch (nose up) and roll (left side up)
+/// to it, radians, in the mount's vehicle frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Tilt {
+    /// Pitch, nose up.
+    pub pitch: f32,
+    /// Roll, left side up.
+    pub roll: f32,
+}
+
+impl Model {
+    /// Where ray `x` meets the road's plane under the camera's height, tilted by `tilt`, in
+    /// the vehicle frame (from the point the arc is drawn from); `None` where it meets none
+    /// ahead.
+    pub fn road_point(&self, tilt: Tilt, x: &Vector3<f32>) -> Option<Vector3<f32>> {
+        // The road's normal in the vehicle frame: the body's attitude turns the road's up.
+        let n = tilt_rotation(tilt).transpose() * Vector3::z();
+        let g = self.m * x;
+        let ng = n.dot(&g);
+        (ng <= -MIN_DEPRESSION).then(|| self.c + g * (self.c.z / -ng))
+    }
+
+    /// Where ray `x1` of the first frame is seen in the second (normalised, z = 1) if it meets
+    /// the road's plane under the camera's height, tilted by `tilt`, and the vehicle moves by
+    /// `p` over `distance_m`: the homography of the road between the frames. `None` where the
+    /// ray meets no road ahead or the point is behind the second camera.
+    pub fn through_road(
+        &self,
+        p: &Params,
+        distance_m: f32,
+        tilt: Tilt,
+        x1: &Vector3<f32>,
+    ) -> Option<Vector3<f32>> {
+        let (m, c) = (&self.m, &self.c);
+        let point = self.road_point(tilt, x1)?;
+        let (q, travel) = vehicle_motion(p, distance_m);
+        let x2 = m.transpose() * (q.transpose() * (point - travel) - c);
+        (x2.z > 0.0).then(|| x2 / x2.z)
     }
 }
 
@@ -214,10 +269,7 @@ pub(crate) mod tests {
         d: f32,
         point: Vector3<f32>,
     ) -> (Vector3<f32>, Vector3<f32>) {
-        let q = rot_z(p.alpha) * rot_y(-p.pitch) * rot_x(p.roll);
-        let az = 0.5 * p.alpha + p.azimuth;
-        let (ce, se) = (libm::cosf(p.elevation), libm::sinf(p.elevation));
-        let travel = Vector3::new(ce * libm::cosf(az), ce * libm::sinf(az), se) * d;
+        let (q, travel) = vehicle_motion(p, d);
         let x1 = model.m.transpose() * (point - model.c);
         let in2 = q.transpose() * (point - travel);
         let x2 = model.m.transpose() * (in2 - model.c);

@@ -28,6 +28,7 @@ pub mod consensus;
 pub mod corners;
 pub mod epipolar;
 pub mod patch;
+pub mod plane;
 
 use crate::calibration::MIN_INLIERS_ABOVE_HORIZON;
 use crate::config::ValidConfig;
@@ -61,6 +62,11 @@ const MAX_START_STEPS: f32 = 3.0;
 /// Least distance travelled the translation is given, metres: standing still, the constraint
 /// keeps a direction.
 const MIN_DISTANCE_M: f32 = 0.1;
+
+/// The road's plane is fitted to the pairs on the ground window's lane, this many times as
+/// far ahead and as wide: the window is sized for the ground vote's corners, and the whole
+/// image's grid puts fewer there.
+const ROAD_REACH: f32 = 2.0;
 
 /// Candidates a cell keeps for each feature it holds.
 const CANDIDATES_PER_FEATURE: usize = 4;
@@ -119,6 +125,9 @@ pub struct ImageMotion {
     /// camera's swing about the pivot
     /// ([`consensus::distance_factor`]); `None` elsewhere (the heading not standing included).
     pub distance_m: Option<f32>,
+    /// The road's plane under the last frame as the pairs on it show it; `None` where they
+    /// are too few or the motion too short.
+    pub road: Option<plane::Road>,
 }
 
 /// What the odometer knows of a frame's motion before its image is matched.
@@ -234,6 +243,18 @@ impl<const K: usize> ImageHeading<K> {
                 out.elevation_rad = fit.params.elevation;
                 out.azimuth_rad = fit.params.azimuth;
                 out.inliers_above_horizon = self.above_horizon();
+                let travelled_m = distance_m.or(prediction.map(|m| m.distance_m));
+                let inlier = self.inlier.get(..self.pairs.len()).unwrap_or_default();
+                let scales = (cfg.config().camera.fx_px, fit.weights_px, s.image_inlier_px);
+                let (arm, far) = (model.swing_arm_m(), ROAD_REACH * s.window_far_m);
+                let half = ROAD_REACH * s.window_half_width_m;
+                let on_road = |p: Vector3<f32>| {
+                    let ahead = p.x - arm;
+                    ahead > 0.0 && ahead < far && p.y.abs() < half
+                };
+                out.road = travelled_m.and_then(|d| {
+                    plane::fit(&model, &self.pairs, inlier, on_road, fit.params, d, scales)
+                });
             }
         }
         self.keep_features(frame, grid);

@@ -41,9 +41,9 @@ pub struct RunArgs {
     /// Without it a run stops at such a frame and writes what it has, as a partial result.
     #[arg(long)]
     skip_bad_frames: bool,
-    /// Write the mount as the odometer learned it while driving (`learn_yaw`, `learn_pitch`):
-    /// the mount file with its yaw and pitch turned by the learned corrections, the rest as
-    /// given.
+    /// Write the mount as the odometer learned it while driving (`learn_yaw`, `learn_pitch`,
+    /// `learn_roll`): the mount file with its yaw, pitch and roll turned by the learned
+    /// corrections, the rest as given.
     #[arg(long)]
     learned_mount: Option<PathBuf>,
 }
@@ -92,13 +92,15 @@ impl RunArgs {
             let rad = |e: Option<AngleEstimate>| e.map_or(0.0, |e| e.rad);
             learned.mount.yaw_rad += rad(c.yaw());
             learned.mount.pitch_rad += rad(c.pitch());
+            learned.mount.roll_rad += rad(c.roll());
             let note = format!(
                 "# Learned by `roadvo run` over {:.0} m of {}: yaw {:+.3} deg, pitch {:+.3} \
-                 deg from the mount file's.\n",
+                 deg, roll {:+.3} deg from the mount file's.\n",
                 c.distance_m,
                 self.seq.seq_dir.display(),
                 rad(c.yaw()).to_degrees(),
-                rad(c.pitch()).to_degrees()
+                rad(c.pitch()).to_degrees(),
+                rad(c.roll()).to_degrees()
             );
             // [camera] where the sequence has no calib.txt to give it (a video, a folder of
             // frames): the file must stand for it as the one given did.
@@ -190,19 +192,25 @@ fn print_summary(run: &RunOutput, out: &Path) {
         out.display()
     );
     let c = &run.ran.calibration;
-    let angle = |name: &str, e: Option<AngleEstimate>| {
-        e.map(|e| {
-            format!(
-                "{name} {:+.3} deg (+-{:.3})",
-                e.rad.to_degrees(),
-                e.sd_rad.to_degrees()
-            )
-        })
+    let deg = |e: AngleEstimate| {
+        format!(
+            "{:+.3} deg (+-{:.3})",
+            e.rad.to_degrees(),
+            e.sd_rad.to_degrees()
+        )
     };
-    let learned: Vec<String> = [angle("yaw", c.yaw()), angle("pitch", c.pitch())]
-        .into_iter()
-        .flatten()
-        .collect();
+    // The yaw with what each kind of evidence says of it: where the two disagree, the road's
+    // plane (a rolled mount, a banked road) is what the ground's step leans on.
+    let yaw = c.yaw().map(|e| {
+        let sources: Vec<String> = [("ground", &c.yaw_ground), ("image", &c.yaw_image)]
+            .into_iter()
+            .filter_map(|(source, l)| l.estimate().map(|e| format!("{source} {}", deg(e))))
+            .collect();
+        format!("yaw {} [{}]", deg(e), sources.join("; "))
+    });
+    let pitch = c.pitch().map(|e| format!("pitch {}", deg(e)));
+    let roll = c.roll().map(|e| format!("roll {}", deg(e)));
+    let learned: Vec<String> = [yaw, pitch, roll].into_iter().flatten().collect();
     if !learned.is_empty() {
         println!(
             "learned mount: {} from the mount file's, over {:.0} m of road",

@@ -1,0 +1,256 @@
+//! The road's plane from the whole image's pairs on it. Points of one plane seen from two
+//! places move by its homography, which holds the camera's rotation, its travel over the
+//! camera's height and the plane's normal: so with the height known, the pairs below the
+//! horizon tell the body's pitch and roll to the road under it and the distance travelled, a
+//! frame at a time, matched by appearance rather than by where the ground vote expects them.
+//! A Gauss-Newton fit over the motion's five parameters, the distance and the tilt, started
+//! from the consensus ([`super::consensus`]), on its inliers that meet the road where the
+//! caller takes it for road (the ground window's lane, twice as far and as wide), weighed
+//! robustly: points off the road (a car's flank, a kerb's face) leave it.
+
+use super::consensus::{Pair, cauchy, solve};
+use super::epipolar::{Model, Params, Tilt};
+use nalgebra::Vector3;
+
+/// What the pairs on the road said.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Road {
+    /// The body's pitch (nose up) to the road under the first frame, in the mount's vehicle
+    /// frame, radians: on average over a drive, the mount's pitch error.
+    pub pitch_rad: f32,
+    /// The body's roll (left side up) to the road, as `pitch_rad`.
+    pub roll_rad: f32,
+    /// The distance travelled, metres (from the pivot the motion is drawn from).
+    pub distance_m: f32,
+    /// Pairs that took part.
+    pub pairs: u16,
+    /// Their root mean square distance from the fit, pixels (each axis).
+    pub rms_px: f32,
+}
+
+/// Parameters: the motion's five ([`Params`]), the distance, the tilt's pitch and roll.
+const N: usize = 8;
+/// Gauss-Newton steps, and the band a residual is taken within at each, times `inlier_px`:
+/// wide at first, for the start's distance is the prediction's.
+const STEPS: usize = 6;
+const BAND: [f32; STEPS] = [8.0, 4.0, 2.0, 1.0, 1.0, 1.0];
+/// Fewest pairs on the road for a fit: a homography has eight degrees of freedom, and each
+/// pair gives two equations; three times as many, for the robust weights to set some aside.
+const MIN_PAIRS: usize = 12;
+/// Step of the numeric derivatives: radians for the angles, a share of the distance for it.
+const DERIVATIVE_STEP: f32 = 1e-4;
+/// Least distance the fit runs at, metres: under it the travel hardly moves the road's points
+/// and the plane is not seen.
+const MIN_DISTANCE_M: f32 = 0.2;
+
+/// The parameters as an array: the motion's five, the distance, the tilt.
+fn to_array(p: &Params, distance_m: f32, t: Tilt) -> [f32; N] {
+    let [a, b, c, d, e] = p.to_array();
+    [a, b, c, d, e, distance_m, t.pitch, t.roll]
+}
+
+/// The inverse of [`to_array`].
+fn from_array(a: [f32; N]) -> (Params, f32, Tilt) {
+    let [a0, a1, a2, a3, a4, d, tp, tr] = a;
+    (
+        Params::from_array([a0, a1, a2, a3, a4]),
+        d,
+        Tilt {
+            pitch: tp,
+            roll: tr,
+        },
+    )
+}
+
+/// The residual of pair `c` under the parameters `a`, pixels (columns, rows); `None` where its
+/// first ray meets no road.
+fn residual(model: &Model, a: &[f32; N], c: &Pair, focal_px: f32) -> Option<[f32; 2]> {
+    let (p, d, t) = from_array(*a);
+    let x2 = model.through_road(&p, d, t, &c.x1)?;
+    Some([focal_px * (x2.x - c.x2.x), focal_px * (x2.y - c.x2.y)])
+}
+
+/// Fits the road's plane to the pairs `inlier` marks whose first ray meets the road where
+/// `on_road` takes the point (vehicle frame, from the point the arc is drawn from), from the
+/// motion `start` over `distance_m`: residuals over `inlier_px` are set aside (more in the
+/// first steps), the rest weighed by Cauchy's weights at `scale_px`. `None` under
+/// [`MIN_PAIRS`] pairs or [`MIN_DISTANCE_M`], or where the normal equations are singular.
+pub fn fit(
+    model: &Model,
+    pairs: &[Pair],
+    inlier: &[bool],
+    on_road: impl Fn(Vector3<f32>) -> bool,
+    start: Params,
+    distance_m: f32,
+    (focal_px, scale_px, inlier_px): (f32, f32, f32),
+) -> Option<Road> {
+    if distance_m < MIN_DISTANCE_M {
+        return None;
+    }
+    let mut a = to_array(&start, distance_m, Tilt::default());
+    let chosen = || {
+        let road = |c: &Pair| {
+            model
+                .road_point(Tilt::default(), &c.x1)
+                .is_some_and(&on_road)
+        };
+        pairs
+            .iter()
+            .zip(inlier)
+            .filter(move |(c, k)| **k && road(c))
+            .map(|(c, _)| c)
+    };
+    let mut used = 0usize;
+    let mut sum_sq = 0.0f32;
+    for band in BAND.map(|b| b * inlier_px) {
+        let mut jtj = [[0.0f32; N]; N];
+        let mut jtr = [0.0f32; N];
+        (used, sum_sq) = (0, 0.0);
+        let steps: [f32; N] = core::array::from_fn(|k| {
+            if k == 5 {
+                DERIVATIVE_STEP * a[5].max(MIN_DISTANCE_M)
+            } else {
+                DERIVATIVE_STEP
+            }
+        });
+        for c in chosen() {
+            let Some(r) = residual(model, &a, c, focal_px) else {
+                continue;
+            };
+            if r[0].abs() > band || r[1].abs() > band {
+                continue;
+            }
+            // Both axes' derivatives; a pair whose moved ray leaves the road is left out.
+            let mut j = [[0.0f32; N]; 2];
+            let mut whole = true;
+            for k in 0..N {
+                let mut moved = a;
+                moved[k] += steps[k];
+                match residual(model, &moved, c, focal_px) {
+                    Some(m) => {
+                        j[0][k] = (m[0] - r[0]) / steps[k];
+                        j[1][k] = (m[1] - r[1]) / steps[k];
+                    }
+                    None => whole = false,
+                }
+            }
+            if !whole {
+                continue;
+            }
+            used += 1;
+            for (axis, ja) in j.iter().enumerate() {
+                let w = cauchy(r[axis], scale_px);
+                sum_sq += r[axis] * r[axis];
+                for x in 0..N {
+                    jtr[x] += w * ja[x] * r[axis];
+                    for y in 0..N {
+                        jtj[x][y] += w * ja[x] * ja[y];
+                    }
+                }
+            }
+        }
+        if used < MIN_PAIRS {
+            return None;
+        }
+        let delta = solve(jtj, jtr)?;
+        a = core::array::from_fn(|k| a[k] - delta[k]);
+        // A distance that fell under the least (or is not a number) is no fit.
+        if a[5].is_nan() || a[5] < MIN_DISTANCE_M {
+            return None;
+        }
+    }
+    let (_, d, t) = from_array(a);
+    Some(Road {
+        pitch_rad: t.pitch,
+        roll_rad: t.roll,
+        distance_m: d,
+        pairs: u16::try_from(used).unwrap_or(u16::MAX),
+        rms_px: libm::sqrtf(sum_sq / (2.0 * used as f32)),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::epipolar::tests::{mount, rays};
+    use super::*;
+    use std::vec::Vec;
+
+    /// Pairs of road points ahead, on the road tilted by `tilt` under the camera, seen from
+    /// both frames of motion `p` over `d` metres; every fifth a point 0.5 m above it (a car's
+    /// flank), and each ray moved by up to `noise_px`.
+    fn road_pairs(model: &Model, p: &Params, d: f32, tilt: Tilt, noise_px: f32) -> Vec<Pair> {
+        let mut next = crate::test_rng::uniform(77u32);
+        let b = super::super::epipolar::tilt_rotation(tilt);
+        let height = 1.65;
+        (0..80)
+            .map(|k| {
+                // On the road's plane, in the road's frame under the camera, then the vehicle's.
+                let (ahead, left) = (6.0 + 18.0 * next(), 5.0 * (next() - 0.5) * 2.0);
+                let up = if k % 5 == 0 { 0.5 } else { 0.0 };
+                let point = b.transpose() * Vector3::new(ahead, left, up - height)
+                    + Vector3::new(1.2, 0.0, height);
+                let (x1, x2) = rays(model, p, d, point);
+                let shake = |v: f32, next: &mut dyn FnMut() -> f32| {
+                    v + noise_px / 700.0 * 2.0 * (next() - 0.5)
+                };
+                Pair {
+                    x1,
+                    x2: Vector3::new(shake(x2.x, &mut next), shake(x2.y, &mut next), 1.0),
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_road_s_tilt_and_the_distance_come_back_from_pairs_on_it() {
+        let model = Model::new(&mount());
+        let truth = Params {
+            alpha: 0.01,
+            pitch: 0.002,
+            roll: -0.001,
+            azimuth: 0.0,
+            elevation: 0.0,
+        };
+        let tilt = Tilt {
+            pitch: 1f32.to_radians(),
+            roll: -0.7f32.to_radians(),
+        };
+        let pairs = road_pairs(&model, &truth, 0.9, tilt, 0.2);
+        let inlier = [true; 80];
+        // Started from the level road and a distance 10 % short.
+        let road = fit(
+            &model,
+            &pairs,
+            &inlier,
+            |_| true,
+            truth,
+            0.81,
+            (700.0, 0.3, 1.0),
+        )
+        .expect("a fit");
+        let pitch_deg = road.pitch_rad.to_degrees();
+        let roll_deg = road.roll_rad.to_degrees();
+        assert!((pitch_deg - 1.0).abs() < 0.05, "{road:?}");
+        assert!((roll_deg + 0.7).abs() < 0.05, "{road:?}");
+        assert!((road.distance_m - 0.9).abs() < 0.01, "{road:?}");
+        // The points off the road were set aside.
+        assert!(road.pairs >= 60 && road.pairs <= 66, "{road:?}");
+        assert!(road.rms_px < 0.2, "{road:?}");
+    }
+
+    #[test]
+    fn too_few_pairs_or_too_short_a_step_give_no_plane() {
+        let model = Model::new(&mount());
+        let p = Params::default();
+        let tilt = Tilt::default();
+        let pairs = road_pairs(&model, &p, 0.9, tilt, 0.0);
+        let scales = (700.0, 0.3, 1.0);
+        let few = [[true; 10].as_slice(), &[false; 70]].concat();
+        assert_eq!(fit(&model, &pairs, &few, |_| true, p, 0.9, scales), None);
+        let all = [true; 80];
+        assert_eq!(fit(&model, &pairs, &all, |_| true, p, 0.1, scales), None);
+        // None on the road where the caller says the road is not.
+        assert_eq!(fit(&model, &pairs, &all, |_| false, p, 0.9, scales), None);
+    }
+}
