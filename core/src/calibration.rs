@@ -33,6 +33,8 @@
 //! [`Calibration::applied_roll_rad`] (each estimate held short by a standard error) whenever
 //! one has moved by [`APPLY_STEP_RAD`].
 
+use crate::heading::plane::Road;
+
 /// Road over which the calibration forgets, metres: an estimate rests on about this much of
 /// the latest driving, enough to average a body's rolling and pitching out and to follow a
 /// change between ignitions within minutes.
@@ -48,8 +50,6 @@ pub const APPLY_SDS: f32 = 1.0;
 /// The change of a learned angle, radians, that turns the mount again (0.02 deg: a tenth of
 /// the yaw error that costs 0.005 deg/m).
 pub const APPLY_STEP_RAD: f32 = 0.02 * core::f32::consts::PI / 180.0;
-
-use crate::heading::plane::Road;
 
 /// A frame's measurement is taken at most this many spreads from the estimate (a vehicle
 /// passing, a frame matched wrong).
@@ -193,9 +193,9 @@ impl LearnedLine {
     };
 
     /// The line's slope, radians a unit of load: none until the loads spread over
-    /// [`MIN_LOAD_SPREAD`].
+    /// [`MIN_LOAD_SPREAD_SQ`]'s root.
     pub fn slope(&self) -> f32 {
-        if self.load_var > MIN_LOAD_SPREAD * MIN_LOAD_SPREAD {
+        if self.load_var > MIN_LOAD_SPREAD_SQ {
             self.covariance / self.load_var
         } else {
             0.0
@@ -302,10 +302,9 @@ fn next_spread(share: f32, spread: f32, r: f32) -> f32 {
     libm::sqrtf(var).max(MIN_SPREAD_RAD)
 }
 
-/// Least spread of the loads for a line's slope (m/s^2 of lateral acceleration for the roll):
-/// under it, frames at one load cannot tell a slope.
-const MIN_LOAD_SPREAD: f32 = 0.5;
-const MIN_LOAD_SPREAD_SQ: f32 = MIN_LOAD_SPREAD * MIN_LOAD_SPREAD;
+/// Least spread of the loads for a line's slope, squared (0.5 m/s^2 of lateral acceleration for
+/// the roll): under it, frames at one load cannot tell a slope.
+const MIN_LOAD_SPREAD_SQ: f32 = 0.5 * 0.5;
 
 /// One learned angle: its value and its standard error.
 #[derive(Clone, Copy, Debug, PartialEq)]

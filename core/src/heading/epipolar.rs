@@ -183,28 +183,54 @@ impl Model {
     /// the vehicle frame (from the point the arc is drawn from); `None` where it meets none
     /// ahead.
     pub fn road_point(&self, tilt: Tilt, x: &Vector3<f32>) -> Option<Vector3<f32>> {
-        // The road's normal in the vehicle frame: the body's attitude turns the road's up.
-        let n = tilt_rotation(tilt).transpose() * Vector3::z();
+        self.meet_road(&road_normal(tilt), x)
+    }
+
+    /// Where ray `x` meets the road's plane of normal `n` (vehicle frame) under the camera's
+    /// height.
+    fn meet_road(&self, n: &Vector3<f32>, x: &Vector3<f32>) -> Option<Vector3<f32>> {
         let g = self.m * x;
         let ng = n.dot(&g);
         (ng <= -MIN_DEPRESSION).then(|| self.c + g * (self.c.z / -ng))
     }
 
-    /// Where ray `x1` of the first frame is seen in the second (normalised, z = 1) if it meets
-    /// the road's plane under the camera's height, tilted by `tilt`, and the vehicle moves by
-    /// `p` over `distance_m`: the homography of the road between the frames. `None` where the
-    /// ray meets no road ahead or the point is behind the second camera.
-    pub fn through_road(
-        &self,
-        p: &Params,
-        distance_m: f32,
-        tilt: Tilt,
-        x1: &Vector3<f32>,
-    ) -> Option<Vector3<f32>> {
-        let (m, c) = (&self.m, &self.c);
-        let point = self.road_point(tilt, x1)?;
+    /// The homography of the road's plane, tilted by `tilt`, between two frames of motion `p`
+    /// over `distance_m`: taken once for all of a frame's rays ([`RoadMotion::seen`]).
+    pub fn through_road(&self, p: &Params, distance_m: f32, tilt: Tilt) -> RoadMotion<'_> {
         let (q, travel) = vehicle_motion(p, distance_m);
-        let x2 = m.transpose() * (q.transpose() * (point - travel) - c);
+        RoadMotion {
+            model: self,
+            normal: road_normal(tilt),
+            turn: q.transpose(),
+            travel,
+        }
+    }
+}
+
+/// The road's normal in the vehicle frame: the body's attitude `tilt` turns the road's up.
+fn road_normal(tilt: Tilt) -> Vector3<f32> {
+    tilt_rotation(tilt).transpose() * Vector3::z()
+}
+
+/// The road's homography between two frames ([`Model::through_road`]).
+#[derive(Clone, Copy, Debug)]
+pub struct RoadMotion<'a> {
+    model: &'a Model,
+    /// The road's normal in the vehicle frame.
+    normal: Vector3<f32>,
+    /// The second vehicle frame's rotation in the first, transposed.
+    turn: Matrix3<f32>,
+    /// The vehicle's travel, metres.
+    travel: Vector3<f32>,
+}
+
+impl RoadMotion<'_> {
+    /// Where ray `x1` of the first frame is seen in the second (normalised, z = 1) if it meets
+    /// the road; `None` where it meets no road ahead or the point is behind the second camera.
+    pub fn seen(&self, x1: &Vector3<f32>) -> Option<Vector3<f32>> {
+        let Model { m, c } = self.model;
+        let point = self.model.meet_road(&self.normal, x1)?;
+        let x2 = m.transpose() * (self.turn * (point - self.travel) - c);
         (x2.z > 0.0).then(|| x2 / x2.z)
     }
 }

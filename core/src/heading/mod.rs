@@ -126,7 +126,7 @@ pub struct ImageMotion {
     /// ([`consensus::distance_factor`]); `None` elsewhere (the heading not standing included).
     pub distance_m: Option<f32>,
     /// The road's plane under the last frame as the pairs on it show it; `None` where they
-    /// are too few or the motion too short.
+    /// are too few or the motion too short, and with `learn_pitch` and `learn_roll` off.
     pub road: Option<plane::Road>,
 }
 
@@ -243,7 +243,11 @@ impl<const K: usize> ImageHeading<K> {
                 out.elevation_rad = fit.params.elevation;
                 out.azimuth_rad = fit.params.azimuth;
                 out.inliers_above_horizon = self.above_horizon();
-                let travelled_m = distance_m.or(prediction.map(|m| m.distance_m));
+                // The road's plane serves the learned pitch and roll alone.
+                let learns = s.learn_pitch || s.learn_roll;
+                let travelled_m = distance_m
+                    .or(prediction.map(|m| m.distance_m))
+                    .filter(|_| learns);
                 let inlier = self.inlier.get(..self.pairs.len()).unwrap_or_default();
                 let scales = (cfg.config().camera.fx_px, fit.weights_px, s.image_inlier_px);
                 let (arm, far) = (model.swing_arm_m(), ROAD_REACH * s.window_far_m);

@@ -9,7 +9,7 @@
 //! robustly: points off the road (a car's flank, a kerb's face) leave it.
 
 use super::consensus::{Pair, cauchy, solve};
-use super::epipolar::{Model, Params, Tilt};
+use super::epipolar::{Model, Params, RoadMotion, Tilt};
 use nalgebra::Vector3;
 
 /// What the pairs on the road said.
@@ -63,11 +63,16 @@ fn from_array(a: [f32; N]) -> (Params, f32, Tilt) {
     )
 }
 
-/// The residual of pair `c` under the parameters `a`, pixels (columns, rows); `None` where its
-/// first ray meets no road.
-fn residual(model: &Model, a: &[f32; N], c: &Pair, focal_px: f32) -> Option<[f32; 2]> {
+/// The road's homography under the parameters `a`.
+fn road_motion<'a>(model: &'a Model, a: &[f32; N]) -> RoadMotion<'a> {
     let (p, d, t) = from_array(*a);
-    let x2 = model.through_road(&p, d, t, &c.x1)?;
+    model.through_road(&p, d, t)
+}
+
+/// The residual of pair `c` under the homography `h`, pixels (columns, rows); `None` where its
+/// first ray meets no road.
+fn residual(h: &RoadMotion, c: &Pair, focal_px: f32) -> Option<[f32; 2]> {
+    let x2 = h.seen(&c.x1)?;
     Some([focal_px * (x2.x - c.x2.x), focal_px * (x2.y - c.x2.y)])
 }
 
@@ -114,8 +119,15 @@ pub fn fit(
                 DERIVATIVE_STEP
             }
         });
+        // The homographies at the parameters and each moved by its step, once for all pairs.
+        let base = road_motion(model, &a);
+        let moved: [RoadMotion; N] = core::array::from_fn(|k| {
+            let mut moved = a;
+            moved[k] += steps[k];
+            road_motion(model, &moved)
+        });
         for c in chosen() {
-            let Some(r) = residual(model, &a, c, focal_px) else {
+            let Some(r) = residual(&base, c, focal_px) else {
                 continue;
             };
             if r[0].abs() > band || r[1].abs() > band {
@@ -124,10 +136,8 @@ pub fn fit(
             // Both axes' derivatives; a pair whose moved ray leaves the road is left out.
             let mut j = [[0.0f32; N]; 2];
             let mut whole = true;
-            for k in 0..N {
-                let mut moved = a;
-                moved[k] += steps[k];
-                match residual(model, &moved, c, focal_px) {
+            for (k, h) in moved.iter().enumerate() {
+                match residual(h, c, focal_px) {
                     Some(m) => {
                         j[0][k] = (m[0] - r[0]) / steps[k];
                         j[1][k] = (m[1] - r[1]) / steps[k];
