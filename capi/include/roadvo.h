@@ -13,7 +13,7 @@
 
 // Words of a configuration ([`roadvo_configure`]): the camera's, the mount's and the odometer
 // settings', each in the core's order (`roadvo::wire::config_words`).
-#define ROADVO_CONFIG_WORDS 61
+#define ROADVO_CONFIG_WORDS 62
 
 // Words of an estimate's trace record ([`roadvo_trace_record`]): what the firmware examples
 // print and the host's `roadvo run --trace` writes, compared bit for bit.
@@ -21,17 +21,17 @@
 
 #if defined(__arm__)
 // Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 32-bit Arm target.
-#define ROADVO_ODOMETER_SIZE 56872
+#define ROADVO_ODOMETER_SIZE 56912
 #endif
 
 #if defined(__x86_64__)
 // Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 64-bit host.
-#define ROADVO_ODOMETER_SIZE 56984
+#define ROADVO_ODOMETER_SIZE 57016
 #endif
 
 // Bytes of a saved calibration ([`roadvo_calibration_save`], [`roadvo_calibration_restore`]):
 // what a firmware keeps in non-volatile memory across ignition cycles.
-#define ROADVO_CALIBRATION_BYTES 104
+#define ROADVO_CALIBRATION_BYTES 132
 
 // Alignment of an odometer's storage, bytes.
 #define ROADVO_ODOMETER_ALIGN 8
@@ -95,7 +95,7 @@ typedef enum RoadvoStatus {
   // more than a frame outside the image, or the lens distortion does not invert over the
   // frame.
   ROADVO_STATUS_IMPLAUSIBLE_CAMERA = 24,
-  // The bytes given are not a saved calibration (they do not start with its magic `rvc4`).
+  // The bytes given are not a saved calibration (they do not start with its magic `rvc5`).
   ROADVO_STATUS_CALIBRATION_NOT_SAVED = 25,
   // A saved calibration's checksum does not match its fields: the memory that kept it was
   // corrupted.

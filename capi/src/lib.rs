@@ -31,7 +31,7 @@ use roadvo::{
 
 /// Words of a configuration ([`roadvo_configure`]): the camera's, the mount's and the odometer
 /// settings', each in the core's order (`roadvo::wire::config_words`).
-pub const ROADVO_CONFIG_WORDS: usize = 61;
+pub const ROADVO_CONFIG_WORDS: usize = 62;
 
 /// Words of an estimate's trace record ([`roadvo_trace_record`]): what the firmware examples
 /// print and the host's `roadvo run --trace` writes, compared bit for bit.
@@ -39,14 +39,14 @@ pub const ROADVO_TRACE_WORDS: usize = 11;
 
 /// Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 32-bit Arm target.
 #[cfg(target_arch = "arm")]
-pub const ROADVO_ODOMETER_SIZE: usize = 56_872;
+pub const ROADVO_ODOMETER_SIZE: usize = 56_912;
 /// Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 64-bit host.
 #[cfg(target_arch = "x86_64")]
-pub const ROADVO_ODOMETER_SIZE: usize = 56_984;
+pub const ROADVO_ODOMETER_SIZE: usize = 57_016;
 
 /// Bytes of a saved calibration ([`roadvo_calibration_save`], [`roadvo_calibration_restore`]):
 /// what a firmware keeps in non-volatile memory across ignition cycles.
-pub const ROADVO_CALIBRATION_BYTES: usize = 104;
+pub const ROADVO_CALIBRATION_BYTES: usize = 132;
 
 /// Alignment of an odometer's storage, bytes.
 pub const ROADVO_ODOMETER_ALIGN: usize = 8;
@@ -130,7 +130,7 @@ pub enum RoadvoStatus {
     /// more than a frame outside the image, or the lens distortion does not invert over the
     /// frame.
     ImplausibleCamera = 24,
-    /// The bytes given are not a saved calibration (they do not start with its magic `rvc4`).
+    /// The bytes given are not a saved calibration (they do not start with its magic `rvc5`).
     CalibrationNotSaved = 25,
     /// A saved calibration's checksum does not match its fields: the memory that kept it was
     /// corrupted.

@@ -285,6 +285,7 @@ fn a_calibration_saved_is_restored_and_bad_bytes_are_refused() {
             weight_sq: 1000.0,
             ..LearnedLine::NONE
         },
+        swing: LearnedLine::NONE,
         distance_m: 200.0,
     };
     let saved = learned.to_bytes();

@@ -1,7 +1,8 @@
-//! The mount as learned while driving: corrections to the configured mount's yaw, pitch and roll,
-//! their spreads and the road they rest on, in a small plain value that an ECU can keep in
-//! non-volatile memory ([`Calibration::to_bytes`], [`Calibration::from_bytes`]) and give back
-//! to the odometer after the next ignition ([`crate::Odometer::restore_calibration`]).
+//! The mount as learned while driving: corrections to the configured mount's yaw, pitch, roll and
+//! camera distance ahead of the axle, their spreads and the road they rest on, in a small plain
+//! value that an ECU can keep in non-volatile memory ([`Calibration::to_bytes`],
+//! [`Calibration::from_bytes`]) and give back to the odometer after the next ignition
+//! ([`crate::Odometer::restore_calibration`]).
 //!
 //! - **Yaw.** A camera turned by a yaw error sees the road move off the arc's chord by the
 //!   error times the distance, in every frame, straight or turning; the body's roll shakes it
@@ -24,14 +25,20 @@
 //!   ([`crate::heading::plane`]); the body's pitching and rolling average out.
 //! - **Roll.** From the road's plane alone, on every frame whose pairs on the road fit one
 //!   (the direction of travel does not see a roll).
+//! - **The camera's distance ahead of the rear axle.** A camera further ahead than the mount
+//!   file says swings further sideways in a bend: the whole image's direction of travel leaves
+//!   the chord by the error times the curvature, on frames that see more than the road. It is
+//!   learned as the slope of a line against each frame's own response to a metre of it
+//!   ([`Calibration::swing`]), where the bends spread enough to tell it.
 //!
 //! Each estimate keeps its measurements' robust running mean ([`Learned`]), weighed by the
 //! distance each frame covers (times the pairs that tell a sideways step, for the ground's) and
 //! forgetting over [`FORGET_M`] of road, so that it follows a camera refitted or knocked while
 //! the noise of single frames averages out. The odometer turns the mount by
 //! [`Calibration::applied_yaw_rad`], [`Calibration::applied_pitch_rad`] and
-//! [`Calibration::applied_roll_rad`] (each estimate held short by a standard error) whenever
-//! one has moved by [`APPLY_STEP_RAD`].
+//! [`Calibration::applied_roll_rad`] and moves its camera by [`Calibration::applied_x_m`] (each
+//! estimate held short by a standard error) whenever one has moved by [`APPLY_STEP_RAD`] or
+//! [`APPLY_STEP_M`].
 
 use crate::heading::plane::Road;
 
@@ -192,32 +199,43 @@ impl LearnedLine {
         weight_sq: 0.0,
     };
 
-    /// The line's slope, radians a unit of load: none until the loads spread over
-    /// [`MIN_LOAD_SPREAD_SQ`]'s root.
-    pub fn slope(&self) -> f32 {
-        if self.load_var > MIN_LOAD_SPREAD_SQ {
+    /// The line's slope, radians a unit of load: none until the loads' variance exceeds
+    /// `least_load_var` (under it, frames at one load cannot tell a slope).
+    pub fn slope(&self, least_load_var: f32) -> f32 {
+        if self.load_var > least_load_var {
             self.covariance / self.load_var
         } else {
             0.0
         }
     }
 
+    /// The slope and its standard error (the spread over the frames' effective number and
+    /// the loads' spread), radians a unit of load; `None` until the loads' variance exceeds
+    /// `least_load_var`.
+    pub fn slope_estimate(&self, least_load_var: f32) -> Option<(f32, f32)> {
+        (self.weight > 0.0 && self.load_var > least_load_var).then(|| {
+            let sd = self.spread_rad * libm::sqrtf(self.weight_sq / self.load_var) / self.weight;
+            (self.slope(least_load_var), sd)
+        })
+    }
+
     /// The angle at no load and its standard error (a line's intercept: the spread over the
     /// frames' effective number, widened by how far their mean load lies from none against
-    /// the loads' spread); `None` before a frame measured.
-    pub fn estimate(&self) -> Option<AngleEstimate> {
+    /// the loads' spread, taken as at least `least_load_var`); `None` before a frame measured.
+    pub fn estimate(&self, least_load_var: f32) -> Option<AngleEstimate> {
         (self.weight > 0.0).then(|| {
-            let lever = self.mean_load * self.mean_load / self.load_var.max(MIN_LOAD_SPREAD_SQ);
+            let lever = self.mean_load * self.mean_load / self.load_var.max(least_load_var);
             AngleEstimate {
-                rad: self.mean_rad - self.slope() * self.mean_load,
+                rad: self.mean_rad - self.slope(least_load_var) * self.mean_load,
                 sd_rad: self.spread_rad * libm::sqrtf(self.weight_sq * (1.0 + lever)) / self.weight,
             }
         })
     }
 
     /// Takes one frame's measurement `rad` at `load`, weighing `w`, over `distance_m` of road,
-    /// as [`Learned`] takes its: clipped at a few spreads from the line.
-    fn take(&mut self, rad: f32, load: f32, w: f32, distance_m: f32) {
+    /// as [`Learned`] takes its: clipped at a few spreads from the line (its slope as
+    /// [`slope`](Self::slope) gives it with `least_load_var`).
+    fn take(&mut self, rad: f32, (load, least_load_var): (f32, f32), w: f32, distance_m: f32) {
         if !load.is_finite() {
             return;
         }
@@ -227,7 +245,7 @@ impl LearnedLine {
         };
         let bound = CLIP_SPREADS * spread;
         let dx = load - self.mean_load;
-        let line = self.mean_rad + self.slope() * dx;
+        let line = self.mean_rad + self.slope(least_load_var) * dx;
         let r = (rad - line).max(-bound).min(bound);
         let dy = line + r - self.mean_rad;
         let max = Calibration::MAX_RAD;
@@ -302,9 +320,24 @@ fn next_spread(share: f32, spread: f32, r: f32) -> f32 {
     libm::sqrtf(var).max(MIN_SPREAD_RAD)
 }
 
-/// Least spread of the loads for a line's slope, squared (0.5 m/s^2 of lateral acceleration for
-/// the roll): under it, frames at one load cannot tell a slope.
-const MIN_LOAD_SPREAD_SQ: f32 = 0.5 * 0.5;
+/// Least variance of the lateral acceleration for the roll's slope against it, (m/s^2)^2: a
+/// spread of 0.5 m/s^2.
+const ROLL_LOAD_VAR: f32 = 0.5 * 0.5;
+
+/// Least variance of the swing's load (the direction of travel's change a metre of the
+/// camera's distance ahead of the axle: about the curvature driven) for the distance to be
+/// learned, (1/m)^2: a spread of 0.01 1/m (a bend of 100 m radius). Over straighter drives the
+/// offset moves the direction of travel by less than the image tells (0.2 m by 0.1 deg in
+/// that bend).
+const SWING_VAR: f32 = 0.01 * 0.01;
+
+/// Largest correction of the camera's distance ahead of the rear axle, metres: past it the
+/// mount file is wrong, not worn.
+pub const MAX_X_M: f32 = 1.0;
+
+/// The least step of the learned distance ahead of the axle, metres (1 cm: 0.005 deg of
+/// direction a frame in a bend of 10 m radius).
+pub const APPLY_STEP_M: f32 = 0.01;
 
 /// One learned angle: its value and its standard error.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -320,18 +353,23 @@ pub struct AngleEstimate {
 /// [`APPLY_SDS`] of its standard errors towards the mount file's (none where it is within
 /// them), so that an estimate the road does not yet support leaves the mount as it is, and a
 /// clear error is turned away at once.
-fn held_short(estimate: Option<AngleEstimate>, settled: bool) -> f32 {
-    let Some(e) = estimate.filter(|_| settled) else {
+fn held_short(estimate: Option<(f32, f32)>, settled: bool) -> f32 {
+    let Some((value, sd)) = estimate.filter(|_| settled) else {
         return 0.0;
     };
-    let margin = APPLY_SDS * e.sd_rad;
-    if e.rad > margin {
-        e.rad - margin
-    } else if e.rad < -margin {
-        e.rad + margin
+    let margin = APPLY_SDS * sd;
+    if value > margin {
+        value - margin
+    } else if value < -margin {
+        value + margin
     } else {
         0.0
     }
+}
+
+/// An angle estimate as `held_short` takes it.
+fn pair(e: Option<AngleEstimate>) -> Option<(f32, f32)> {
+    e.map(|e| (e.rad, e.sd_rad))
 }
 
 /// The mount learned while driving: the yaw and the pitch from two kinds of evidence each, the
@@ -353,6 +391,13 @@ pub struct Calibration {
     /// The roll the road's plane shows, left side up, against the lateral acceleration: at
     /// none, the camera is rolled that much further left side up than the mount file says.
     pub roll: LearnedLine,
+    /// The whole image's direction of travel left of the arc's chord (radians, as the mount
+    /// file's distance ahead of the axle would show it) against how far a metre of that
+    /// distance moves it (about the curvature driven, 1/m): a camera further ahead of the axle
+    /// than the model draws it swings further sideways in a bend, by the error times the turn.
+    /// The line's slope is the correction to the camera's distance ahead of the rear axle,
+    /// metres.
+    pub swing: LearnedLine,
     /// Road driven on the frames that measured, metres, all of it.
     pub distance_m: f32,
 }
@@ -379,7 +424,7 @@ pub enum CalibrationError {
 impl core::fmt::Display for CalibrationError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.write_str(match self {
-            Self::WrongLength => "a saved calibration is 104 bytes long",
+            Self::WrongLength => "a saved calibration is 132 bytes long",
             Self::WrongMagic => "not a saved roadvo calibration (or one of another version)",
             Self::Corrupted => "the saved calibration's checksum does not match",
             Self::OutOfRange => "a saved calibration value is not finite or out of range",
@@ -404,16 +449,17 @@ impl Calibration {
         pitch_image: Learned::NONE,
         pitch_road: Learned::NONE,
         roll: LearnedLine::NONE,
+        swing: LearnedLine::NONE,
         distance_m: 0.0,
     };
 
-    /// Bytes of [`to_bytes`](Self::to_bytes): the magic, twenty-four `f32`, a checksum.
-    pub const BYTES: usize = 104;
+    /// Bytes of [`to_bytes`](Self::to_bytes): the magic, thirty-one `f32`, a checksum.
+    pub const BYTES: usize = 132;
 
-    /// The first four bytes of a saved calibration (`rvc4`; the older `rvc1` to `rvc3`,
-    /// without the road's pitch and roll, are refused: the odometer learns again within
-    /// minutes).
-    pub const MAGIC: [u8; 4] = *b"rvc4";
+    /// The first four bytes of a saved calibration (`rvc5`; the older `rvc1` to `rvc4`,
+    /// without the road's pitch and roll or the distance ahead of the axle, are refused: the
+    /// odometer learns again within minutes).
+    pub const MAGIC: [u8; 4] = *b"rvc5";
 
     /// Largest correction of any angle, radians (10 deg): past it the mount file is wrong,
     /// not worn.
@@ -422,7 +468,7 @@ impl Calibration {
     /// The yaw correction to turn the mount by, radians (see [`Learned`]): none before the
     /// calibration is [`settled`](Self::settled).
     pub fn applied_yaw_rad(&self) -> f32 {
-        held_short(self.yaw(), self.settled())
+        held_short(pair(self.yaw()), self.settled())
     }
 
     /// The yaw learned, radians, and its standard error: the ground's and the image's
@@ -442,19 +488,36 @@ impl Calibration {
 
     /// The roll learned, radians, and its standard error; `None` before a frame measured.
     pub fn roll(&self) -> Option<AngleEstimate> {
-        self.roll.estimate()
+        self.roll.estimate(ROLL_LOAD_VAR)
+    }
+
+    /// The correction to the camera's distance ahead of the rear axle learned, metres, and its
+    /// standard error (the swing's slope); `None` until the swing's load spreads over
+    /// [`SWING_VAR`]'s root.
+    pub fn x_ahead(&self) -> Option<(f32, f32)> {
+        self.swing.slope_estimate(SWING_VAR)
+    }
+
+    /// The correction to move the camera ahead by, metres, as
+    /// [`applied_yaw_rad`](Self::applied_yaw_rad), within [`MAX_X_M`].
+    pub fn applied_x_m(&self) -> f32 {
+        let max = MAX_X_M;
+        // max then min rather than clamp: no panic path for a bound the compiler cannot order.
+        held_short(self.x_ahead(), self.settled())
+            .max(-max)
+            .min(max)
     }
 
     /// The roll correction to turn the mount by, radians, as
     /// [`applied_yaw_rad`](Self::applied_yaw_rad).
     pub fn applied_roll_rad(&self) -> f32 {
-        held_short(self.roll(), self.settled())
+        held_short(pair(self.roll()), self.settled())
     }
 
     /// The pitch correction to turn the mount by, radians, as
     /// [`applied_yaw_rad`](Self::applied_yaw_rad).
     pub fn applied_pitch_rad(&self) -> f32 {
-        held_short(self.pitch(), self.settled())
+        held_short(pair(self.pitch()), self.settled())
     }
 
     /// Whether it rests on enough road ([`SETTLE_M`]) to be applied.
@@ -502,9 +565,29 @@ impl Calibration {
         }
         if roll {
             let rad = applied.roll + road.roll_rad;
-            self.roll
-                .take(rad, lateral_m_s2, distance_m.abs(), distance_m);
+            self.roll.take(
+                rad,
+                (lateral_m_s2, ROLL_LOAD_VAR),
+                distance_m.abs(),
+                distance_m,
+            );
         }
+    }
+
+    /// Takes one frame's direction of travel over `distance_m`, `azimuth_rad` left of the arc's
+    /// chord as the mount with its camera moved `applied_x_m` ahead sees it, and
+    /// `swing_rad_per_m`, how far it would move right were the camera a metre further ahead
+    /// ([`crate::heading::ImageMotion::swing_rad_per_m`]).
+    pub fn measure_x_ahead(
+        &mut self,
+        (azimuth_rad, swing_rad_per_m): (f32, f32),
+        distance_m: f32,
+        applied_x_m: f32,
+    ) {
+        // As the mount file's camera would show it: the applied correction's swing added back.
+        let rad = azimuth_rad + applied_x_m * swing_rad_per_m;
+        let load = (swing_rad_per_m, SWING_VAR);
+        self.swing.take(rad, load, distance_m.abs(), distance_m);
     }
 
     /// Takes one frame's direction of travel, `elevation_rad` above the horizontal of the
@@ -527,23 +610,25 @@ impl Calibration {
             &self.pitch_image,
             &self.pitch_road,
         ];
-        if !(distance && angles.iter().all(|a| a.in_range()) && self.roll.in_range()) {
+        let lines = self.roll.in_range() && self.swing.in_range();
+        if !(distance && angles.iter().all(|a| a.in_range()) && lines) {
             return Err(CalibrationError::OutOfRange);
         }
         Ok(())
     }
 
-    /// The value as bytes for non-volatile memory: [`MAGIC`](Self::MAGIC), the twenty-four
+    /// The value as bytes for non-volatile memory: [`MAGIC`](Self::MAGIC), the thirty-one
     /// fields as little-endian `f32` in declaration order (four for each of the ground's yaw,
-    /// the image's yaw, the image's pitch and the road's pitch, seven for the roll, then the
-    /// distance), and a 32-bit checksum (FNV-1a) of the rest.
+    /// the image's yaw, the image's pitch and the road's pitch, seven for each of the roll and
+    /// the swing, then the distance driven), and a 32-bit checksum (FNV-1a) of the rest.
     pub fn to_bytes(&self) -> [u8; Self::BYTES] {
         let fields = self.yaw_ground.fields().into_iter();
         let fields = fields
             .chain(self.yaw_image.fields())
             .chain(self.pitch_image.fields())
             .chain(self.pitch_road.fields())
-            .chain(self.roll.fields());
+            .chain(self.roll.fields())
+            .chain(self.swing.fields());
         let mut out = [0u8; Self::BYTES];
         let head = Self::MAGIC
             .into_iter()
@@ -579,16 +664,16 @@ impl Calibration {
             return Err(CalibrationError::Corrupted);
         }
         let mut f = body.chunks_exact(4).map(|c| f32::from_le_bytes(word(c)));
+        let mut next = || f.next().unwrap_or(f32::NAN);
         let mut learned = || Learned {
-            rad: f.next().unwrap_or(f32::NAN),
-            spread_rad: f.next().unwrap_or(f32::NAN),
-            weight: f.next().unwrap_or(f32::NAN),
-            weight_sq: f.next().unwrap_or(f32::NAN),
+            rad: next(),
+            spread_rad: next(),
+            weight: next(),
+            weight_sq: next(),
         };
         let (yaw_ground, yaw_image) = (learned(), learned());
         let (pitch_image, pitch_road) = (learned(), learned());
-        let mut next = || f.next().unwrap_or(f32::NAN);
-        let roll = LearnedLine {
+        let mut line = || LearnedLine {
             mean_rad: next(),
             mean_load: next(),
             load_var: next(),
@@ -597,12 +682,14 @@ impl Calibration {
             weight: next(),
             weight_sq: next(),
         };
+        let (roll, swing) = (line(), line());
         let c = Self {
             yaw_ground,
             yaw_image,
             pitch_image,
             pitch_road,
             roll,
+            swing,
             distance_m: next(),
         };
         c.check()?;
@@ -747,7 +834,10 @@ mod tests {
         let r = c.roll().unwrap();
         assert!((r.rad - deg(0.5)).abs() < deg(0.05), "{r:?} {c:?}");
         assert!(r.sd_rad < deg(0.05), "{r:?}");
-        assert!((c.roll.slope() - deg(0.4)).abs() < deg(0.05), "{c:?}");
+        assert!(
+            (c.roll.slope(ROLL_LOAD_VAR) - deg(0.4)).abs() < deg(0.05),
+            "{c:?}"
+        );
         assert_eq!(c.pitch(), None);
     }
 
@@ -871,6 +961,47 @@ mod tests {
     }
 
     #[test]
+    fn the_swing_in_bends_moves_the_camera_and_straight_road_leaves_it() {
+        let mut next = crate::test_rng::uniform(5u32);
+        // The camera 0.2 m further ahead of the axle than the file says, the yaw 0.3 deg off:
+        // the direction of travel leaves the chord by the yaw and by the swing of what the
+        // camera as moved so far still lacks, where a metre swings it by `share` of the
+        // curvature (how well the frame's pairs tell the travel from the turn).
+        let frame =
+            |c: &mut Calibration, curvature: f32, share: f32, next: &mut dyn FnMut() -> f32| {
+                let applied_m = c.applied_x_m();
+                let swing = share * curvature;
+                let seen = deg(0.3) + (0.2 - applied_m) * swing + deg(0.5) * (next() - 0.5);
+                c.drive(0.8);
+                c.measure_x_ahead((seen, swing), 0.8, applied_m);
+            };
+        let mut straight = Calibration::NONE;
+        for _ in 0..300 {
+            frame(&mut straight, 0.002 * (next() - 0.5), 1.0, &mut next);
+        }
+        assert_eq!(straight.x_ahead(), None);
+        assert_eq!(straight.applied_x_m(), 0.0);
+        // Bends of 20 m radius both ways between straights, each frame's direction showing all
+        // or half of the swing.
+        let bends = |k: usize| [0.0, 0.05, 0.0, -0.05][(k / 20) % 4];
+        for share in [1.0, 0.5] {
+            let mut c = Calibration::NONE;
+            for k in 0..600 {
+                frame(&mut c, bends(k), share, &mut next);
+            }
+            let (x, sd) = c.x_ahead().unwrap();
+            assert!(
+                (x - 0.2).abs() < 0.02 && sd < 0.02,
+                "{share}: {x} {sd} {c:?}"
+            );
+            assert!((c.applied_x_m() - (x - sd)).abs() < 1e-6);
+            // The line's intercept is the yaw.
+            let yaw = c.swing.estimate(SWING_VAR).unwrap();
+            assert!((yaw.rad - deg(0.3)).abs() < deg(0.02), "{yaw:?}");
+        }
+    }
+
+    #[test]
     fn saved_bytes_come_back_and_damaged_ones_are_refused() {
         let mut c = Calibration::NONE;
         for k in 0..50 {
@@ -878,6 +1009,8 @@ mod tests {
             c.measure_yaw(step(0.01 * (k % 3) as f32), 0.8, 0.0);
             c.measure_yaw_image(deg(0.2) * (k % 4) as f32, 0.8, 0.0);
             c.measure_pitch(deg(0.1) * (k % 5) as f32, 0.8, 0.0);
+            let turn = (0.02 * ((k % 5) as f32 - 2.0), 0.8);
+            c.measure_x_ahead((deg(0.1) * (k % 3) as f32, turn.0 / turn.1), 0.8, 0.05);
             let road = road(deg(-0.1) * (k % 6) as f32, deg(0.05) * (k % 7) as f32);
             c.measure_road(
                 &road,
@@ -922,6 +1055,13 @@ mod tests {
                 roll: LearnedLine {
                     load_var: -1.0,
                     ..c.roll
+                },
+                ..c
+            },
+            Calibration {
+                swing: LearnedLine {
+                    mean_load: f32::INFINITY,
+                    ..c.swing
                 },
                 ..c
             },

@@ -188,6 +188,11 @@ pub struct Odometer<
     mount_rad: Angles,
     /// The calibration's yaw, pitch and roll that `config`'s mount is turned by, radians.
     applied_rad: Angles,
+    /// The configured camera's distance ahead of the rear axle, metres: `config` holds it
+    /// moved by `applied_x_m`.
+    mount_x_m: f32,
+    /// The calibration's correction that `config`'s camera is moved ahead by, metres.
+    applied_x_m: f32,
 }
 
 impl<
@@ -224,6 +229,8 @@ impl<
             calibration: Calibration::NONE,
             mount_rad: Angles::ZERO,
             applied_rad: Angles::ZERO,
+            mount_x_m: 0.0,
+            applied_x_m: 0.0,
         }
     };
 
@@ -259,6 +266,8 @@ impl<
             roll: mount.roll_rad,
         };
         self.applied_rad = Angles::ZERO;
+        self.mount_x_m = mount.x_m;
+        self.applied_x_m = 0.0;
         self.calibration = Calibration::NONE;
         self.config = config;
         self.estimator.configure(&self.config);
@@ -461,22 +470,30 @@ impl<
         self.state.last_timestamp = Some(timestamp);
         // 12. Calibrate: a trusted frame's step across the chord feeds the learned yaw, the whole
         // image's direction of travel on a frame that sees more than the road the learned yaw
-        // and pitch, the road's plane the learned roll, and the pitch on a frame that sees
-        // nothing but road; they turn the mount once it has moved far enough.
+        // and pitch and the distance ahead of the axle, the road's plane the learned roll, and
+        // the pitch on a frame that sees nothing but road; they turn and move the mount once it
+        // has changed far enough.
         let s = self.config.settings();
         let step = sideways.filter(|_| trusted && s.learn_yaw);
-        let travel = image
-            .filter(|i| (s.learn_pitch || s.learn_yaw) && i.heading_change_rad.is_some())
+        let more_than_road = image
+            .filter(|i| i.heading_change_rad.is_some())
             .filter(|i| i.inliers_above_horizon >= calibration::MIN_INLIERS_ABOVE_HORIZON);
+        let travel = more_than_road.filter(|_| s.learn_pitch || s.learn_yaw);
+        let swing = more_than_road
+            .filter(|i| s.learn_x && i.distance_m.is_none())
+            .and_then(|i| Some((i.azimuth_rad, i.swing_rad_per_m?)));
         let road_pitch = s.learn_pitch && travel.is_none();
         let road = image
             .and_then(|i| i.road)
             .filter(|_| road_pitch || s.learn_roll);
-        if step.is_some() || travel.is_some() || road.is_some() {
+        if step.is_some() || travel.is_some() || road.is_some() || swing.is_some() {
             let (d, applied) = (motion.distance_m, self.applied_rad);
             self.calibration.drive(d);
             if let Some(step) = step {
                 self.calibration.measure_yaw(step, d, applied.yaw);
+            }
+            if let Some(swing) = swing {
+                self.calibration.measure_x_ahead(swing, d, self.applied_x_m);
             }
             if let Some(road) = road {
                 // The lateral acceleration the body leans against: speed times turn rate.
@@ -505,9 +522,10 @@ impl<
         })
     }
 
-    /// Turns the configured mount by the calibration's applied yaw, pitch and roll where one
-    /// has moved by [`calibration::APPLY_STEP_RAD`] from the one in use; a turned mount that does
-    /// not validate leaves the one in use.
+    /// Turns the configured mount by the calibration's applied yaw, pitch and roll and moves
+    /// its camera ahead by the applied distance where one has changed by
+    /// [`calibration::APPLY_STEP_RAD`] or [`calibration::APPLY_STEP_M`] from the one in use; a
+    /// changed mount that does not validate leaves the one in use.
     fn apply_calibration(&mut self) {
         let c = &self.calibration;
         let applied = Angles {
@@ -515,11 +533,13 @@ impl<
             pitch: c.applied_pitch_rad(),
             roll: c.applied_roll_rad(),
         };
+        let applied_x_m = c.applied_x_m();
         let moved = |a: f32, b: f32| (a - b).abs() >= calibration::APPLY_STEP_RAD;
         let (now, m) = (self.applied_rad, self.mount_rad);
         if !moved(applied.yaw, now.yaw)
             && !moved(applied.pitch, now.pitch)
             && !moved(applied.roll, now.roll)
+            && (applied_x_m - self.applied_x_m).abs() < calibration::APPLY_STEP_M
         {
             return;
         }
@@ -527,10 +547,14 @@ impl<
         config.mount.yaw_rad = m.yaw + applied.yaw;
         config.mount.pitch_rad = m.pitch + applied.pitch;
         config.mount.roll_rad = m.roll + applied.roll;
-        if let Ok(turned) = config.validate() {
-            self.config = turned;
+        config.mount.x_m = self.mount_x_m + applied_x_m;
+        if let Ok(changed) = config.validate() {
+            self.config = changed;
             self.estimator.remount(&self.config);
+            // The ground's points are seen from a camera further ahead: the tracks go with it.
+            self.tracks.shift_ahead(applied_x_m - self.applied_x_m);
             self.applied_rad = applied;
+            self.applied_x_m = applied_x_m;
         }
     }
 
@@ -701,6 +725,16 @@ mod tests {
                 weight: 100.0,
                 weight_sq: 10.0,
             },
+            // The camera 0.3 m further ahead than the file says, over bends of 50 m radius.
+            swing: LearnedLine {
+                mean_rad: 0.0,
+                mean_load: 0.0,
+                load_var: 4e-4,
+                covariance: 0.3 * 4e-4,
+                spread_rad: 0.01,
+                weight: 100.0,
+                weight_sq: 10.0,
+            },
             distance_m: 100.0,
         };
         let mut odo: Odometer = Odometer::UNCONFIGURED;
@@ -735,6 +769,10 @@ mod tests {
         );
         assert!(turned.0 > 0.4f32.to_radians(), "{turned:?}");
         assert!(turned.1 < -0.6f32.to_radians(), "{turned:?}");
+        // And its camera moved ahead by the distance held short the same way.
+        let moved_m = now.x_m - file.x_m;
+        assert!((moved_m - learned.applied_x_m()).abs() < 1e-6, "{moved_m}");
+        assert!(moved_m > 0.25 && moved_m < 0.3, "{moved_m}");
     }
 
     #[test]

@@ -199,10 +199,11 @@ fn replay(odometer: &mut Odometer) -> Result<(), Error> {
     // What an ECU would keep in non-volatile memory for the next ignition.
     let c = odometer.calibration();
     defmt::println!(
-        "learned mount: yaw {=f32} rad, pitch {=f32} rad, roll {=f32} rad from the mount file's over {=f32} m; saved as {=[u8]:x}",
+        "learned mount: yaw {=f32} rad, pitch {=f32} rad, roll {=f32} rad, x {=f32} m from the mount file's over {=f32} m; saved as {=[u8]:x}",
         c.yaw().map_or(0.0, |e| e.rad),
         c.pitch().map_or(0.0, |e| e.rad),
         c.roll().map_or(0.0, |e| e.rad),
+        c.x_ahead().map_or(0.0, |(m, _)| m),
         c.distance_m,
         c.to_bytes()[..]
     );

@@ -130,6 +130,7 @@ fn cost(
             moved.settings.learn_yaw = false;
             moved.settings.learn_pitch = false;
             moved.settings.learn_roll = false;
+            moved.settings.learn_x = false;
             let Ok(config) = config_for(seq, &moved, method) else {
                 return Ok(f64::INFINITY);
             };

@@ -441,6 +441,9 @@ pub struct QualityLine {
     learned_pitch_rad: f32,
     /// The learned correction of the mount's roll after the frame, radians.
     learned_roll_rad: f32,
+    /// The learned correction of the camera's distance ahead of the rear axle after the
+    /// frame, metres (0 until the bends driven tell it).
+    learned_x_m: f32,
     /// The road it rests on, metres.
     learned_road_m: f32,
 }
@@ -476,6 +479,7 @@ impl QualityLine {
             learned_yaw_rad: c.yaw().map_or(0.0, |e| e.rad),
             learned_pitch_rad: c.pitch().map_or(0.0, |e| e.rad),
             learned_roll_rad: c.roll().map_or(0.0, |e| e.rad),
+            learned_x_m: c.x_ahead().map_or(0.0, |(m, _)| m),
             learned_road_m: c.distance_m,
         }
     }
@@ -596,7 +600,7 @@ pub fn run(
         estimates,
         smooth_lag_frames: trajectory.lag_frames(),
         // Through the mount as the odometer learned it (`learn_yaw`, `learn_pitch`,
-        // `learn_roll`).
+        // `learn_roll`, `learn_x`).
         poses: fill_skipped(&trajectory.into_poses(&ran.config), &frames_run),
         ran,
     })

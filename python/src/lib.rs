@@ -221,7 +221,7 @@ impl PyOdometer {
     /// The camera's KITTI pose after the last frame (12 numbers, the 3x4 `[R | t]` row-major)
     /// through the mount as learned so far: as `roadvo run` writes it without a smoother, which
     /// lifts every frame through the mount learned by the drive's end (the same where nothing
-    /// was learned: `learn_yaw`, `learn_pitch` and `learn_roll` off).
+    /// was learned: `learn_yaw`, `learn_pitch`, `learn_roll` and `learn_x` off).
     #[getter]
     fn camera_pose<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
         let lift = self.odometer.config().lift();

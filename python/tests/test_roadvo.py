@@ -100,6 +100,7 @@ def test_the_odometer_frame_by_frame_is_the_unsmoothed_run(tmp_path):
     mount.set("learn_yaw=false")
     mount.set("learn_pitch=false")
     mount.set("learn_roll=false")
+    mount.set("learn_x=false")
     mount.write(tmp_path / "mount.toml")
     poses = roadvo.run(SEQ, tmp_path / "mount.toml")
 

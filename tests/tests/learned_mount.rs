@@ -1,7 +1,8 @@
-//! The mount learned while driving (`learn_yaw`, `learn_pitch`, `learn_roll`), end to end: a
-//! kitti-like drive with suspension rendered with one mount and the odometer told a yaw, or a
-//! pitch and a roll, 1 deg off, the town told a pitch or a roll 1 deg off, and the calibration
-//! carried across an ignition cycle as the bytes an ECU would keep.
+//! The mount learned while driving (`learn_yaw`, `learn_pitch`, `learn_roll`, `learn_x`), end to
+//! end: a kitti-like drive with suspension rendered with one mount and the odometer told a yaw,
+//! or a pitch and a roll, 1 deg off, the town told a pitch or a roll 1 deg off or its camera
+//! 0.2 m nearer the axle, and the calibration carried across an ignition cycle as the bytes an
+//! ECU would keep.
 
 use roadvo::{AngleEstimate, Calibration, Estimate, Method, Odometer, SliceFrame, ValidConfig};
 use roadvo_sim::eval::{evaluate, heading_change_errors, true_step_m};
@@ -37,14 +38,14 @@ fn render(
 /// Frames of the town drive: about 150 m.
 const TOWN_FRAMES: usize = 200;
 
-/// The town's first [`TOWN_FRAMES`] (seed 1) rendered into `dir`, its mount file's angle `angle`
-/// (of the mount's yaw, pitch and roll) turned by 1 deg.
+/// The town's first [`TOWN_FRAMES`] (seed 1) rendered into `dir`, its mount file's mount as
+/// `wrong` changes it.
 fn town(
     dir: &std::path::Path,
-    angle: fn(&mut roadvo::Mount) -> &mut f32,
+    wrong: fn(&mut roadvo::Mount),
 ) -> (Sequence, Vec<[f64; 12]>, MountFile) {
     let (seq, truth, mut told) = render(dir, "town", &[], TOWN_FRAMES);
-    *angle(&mut told.mount) += 1f32.to_radians();
+    wrong(&mut told.mount);
     (seq, truth, told)
 }
 
@@ -235,7 +236,7 @@ fn a_pitch_learned_in_town_kept_over_an_ignition_cycle_keeps_the_scale() {
     // -0.95 deg; distance over the 99 frames after the cut 1.009 of the truth in one piece,
     // 1.017 restored, 1.062 cold).
     let dir = tempfile::tempdir().unwrap();
-    let (seq, truth, told) = town(dir.path(), |m| &mut m.pitch_rad);
+    let (seq, truth, told) = town(dir.path(), |m| m.pitch_rad += 1f32.to_radians());
     let cut = 100;
     let Split {
         whole: (whole, whole_cal),
@@ -272,7 +273,7 @@ fn a_roll_error_in_the_mount_file_does_not_turn_the_learned_yaw() {
     // alone learn +0.56 deg over these 200 frames). The whole image's direction of travel does
     // not lean on the road's plane, and where it measures, its estimate is the tighter.
     let dir = tempfile::tempdir().unwrap();
-    let (seq, _, told) = town(dir.path(), |m| &mut m.roll_rad);
+    let (seq, _, told) = town(dir.path(), |m| m.roll_rad += 1f32.to_radians());
     let c = run_sequence(&seq, &told, Some(Method::PitchVote))
         .unwrap()
         .ran
@@ -281,4 +282,28 @@ fn a_roll_error_in_the_mount_file_does_not_turn_the_learned_yaw() {
     assert!(yaw.rad.to_degrees().abs() < 0.25, "{c:?}");
     assert!(image.rad.abs() < 2.0 * image.sd_rad, "{c:?}");
     assert!(image.sd_rad < c.yaw_ground.sd_rad().unwrap(), "{c:?}");
+}
+
+#[test]
+fn a_camera_placed_too_near_the_axle_is_moved_ahead_while_driving() {
+    // The town, its mount file's camera 0.2 m nearer the rear axle than the rendered one: in
+    // its bends the camera swings further sideways than the model draws it, and the whole
+    // image's direction of travel leaves the chord by the error times the curvature.
+    let dir = tempfile::tempdir().unwrap();
+    let (seq, _, told) = town(dir.path(), |m| m.x_m -= 0.2);
+    let mut fixed = told;
+    fixed.settings.learn_x = false;
+    let learned = run_sequence(&seq, &told, Some(Method::PitchVote)).unwrap();
+    let kept = run_sequence(&seq, &fixed, Some(Method::PitchVote)).unwrap();
+    let c = learned.ran.calibration;
+    let (x_m, sd_m) = c.x_ahead().unwrap();
+    assert!((x_m - 0.2).abs() < 0.05 && sd_m < 0.05, "{c:?}");
+    assert_eq!(kept.ran.calibration.x_ahead(), None);
+    // The mount the poses are written through has its camera moved by the estimate held
+    // short by its standard error (to the step that moves it again).
+    let moved_m = learned.ran.config.config().mount.x_m - told.mount.x_m;
+    let step = roadvo::calibration::APPLY_STEP_M;
+    assert!((moved_m - c.applied_x_m()).abs() <= step, "{moved_m} {c:?}");
+    assert!(moved_m > 0.1, "{moved_m} {c:?}");
+    assert_eq!(kept.ran.config.config().mount.x_m, told.mount.x_m);
 }

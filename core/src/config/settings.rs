@@ -221,5 +221,10 @@ settings! {
         /// road's plane under the whole image's pairs on it, averaged over the road, turns the
         /// configured mount ([`crate::calibration`]); false: the mount file's roll stands.
         learn_roll: bool = val(true) => "learn_roll";
+        /// Pitch vote with `image_heading`: the camera's distance ahead of the rear axle
+        /// learned while driving (true): the whole image's direction of travel in the bends,
+        /// against the curvature, moves the configured camera ([`crate::calibration`]); false:
+        /// the mount file's `x_m` stands.
+        learn_x: bool = val(true) => "learn_x";
     }
 }

@@ -67,6 +67,10 @@ const INLIER_SCALE: [f32; 3] = [3.0, 2.0, 1.0];
 const TRAVEL_SD_RAD: f32 = 6.0 * core::f32::consts::PI / 180.0;
 const PAIR_SD_PX: f32 = 0.3;
 
+/// The camera's move ahead the swing's derivative is taken over, metres
+/// ([`swing_rad_per_m`]): the model is linear in it.
+const SWING_STEP_M: f32 = 0.1;
+
 /// The distances tried where the direction of travel hangs on the distance
 /// ([`distance_factor`]), as factors of the given one: half octaves, up to 2.8 times either way.
 const DISTANCE_FACTORS: [f32; 7] = {
@@ -351,6 +355,52 @@ pub fn refine(
         heading_sd_rad: rms_px * libm::sqrtf(inverse_00.max(0.0)),
         weights_px: cauchy_px,
     })
+}
+
+/// How far a metre further ahead of the pivot than `model` draws it would move the camera's
+/// fitted direction of travel to the right, radians: the fit's response to the camera's
+/// distance ahead, through its normal equations at `fit` (the other parameters and the prior
+/// as the refinement has them; the inliers and weights it ended with). About the curvature
+/// driven where the pairs tell the travel from the turn, less where they tell it less
+/// ([`crate::calibration`] learns the distance against it). `None` where the normal equations
+/// cannot be solved.
+pub fn swing_rad_per_m(
+    model: &Model,
+    pairs: &[Pair],
+    inlier: &[bool],
+    fit: &Fit,
+    s: &Search,
+) -> Option<f32> {
+    let (p, a) = (fit.params, fit.params.to_array());
+    let base = model.essential(&p, s.distance_m);
+    let moved: [_; 5] = core::array::from_fn(|k| {
+        let mut a = a;
+        a[k] += DERIVATIVE_STEP;
+        model.essential(&Params::from_array(a), s.distance_m)
+    });
+    let ahead = model.from_pivot(-SWING_STEP_M).essential(&p, s.distance_m);
+    let mut jtj = [[0.0f32; 5]; 5];
+    let mut jtx = [0.0f32; 5];
+    for (c, _) in pairs.iter().zip(inlier).filter(|(_, k)| **k) {
+        let r = s.focal_px * sampson(&base, &c.x1, &c.x2);
+        let j: [f32; 5] = core::array::from_fn(|k| {
+            (s.focal_px * sampson(&moved[k], &c.x1, &c.x2) - r) / DERIVATIVE_STEP
+        });
+        let jx = (s.focal_px * sampson(&ahead, &c.x1, &c.x2) - r) / SWING_STEP_M;
+        let w = cauchy(r, fit.weights_px);
+        for a in 0..5 {
+            jtx[a] += w * j[a] * jx;
+            for b in 0..5 {
+                jtj[a][b] += w * j[a] * j[b];
+            }
+        }
+    }
+    let prior = (PAIR_SD_PX / TRAVEL_SD_RAD) * (PAIR_SD_PX / TRAVEL_SD_RAD);
+    for k in [3, 4] {
+        jtj[k][k] += prior;
+    }
+    // The parameters' change a metre ahead is -solve(jtj, jtx); the azimuth's, to the right.
+    Some(solve(jtj, jtx)?[3])
 }
 
 /// What the refinement minimised, at `fit`'s end: each pair's robust loss (Cauchy's,

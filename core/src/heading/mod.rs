@@ -120,6 +120,11 @@ pub struct ImageMotion {
     /// Of the inliers, those seen above the horizon in the last frame: points off the road's
     /// plane (0 without a motion).
     pub inliers_above_horizon: u16,
+    /// How far `azimuth_rad` would move right, radians, were the camera a metre further ahead
+    /// of the pivot than the mount says: about the curvature driven where the pairs tell the
+    /// travel from the turn ([`consensus::swing_rad_per_m`]); `None` without a motion, with
+    /// `learn_x` off, or where it cannot be told.
+    pub swing_rad_per_m: Option<f32>,
     /// The distance travelled along the arc (from the pivot, as [`Motion::distance_m`]),
     /// metres, where the pairs measured it with the heading: in a slow, tight turn, from the
     /// camera's swing about the pivot
@@ -232,7 +237,7 @@ impl<const K: usize> ImageHeading<K> {
                 None => self.start_guess(frame, cfg, grid, &model, ratio),
             };
             out.matches = self.pair(frame, cfg, grid, &model, guess, ratio) as u16;
-            if let Some((fit, distance_m)) = self.consensus(cfg, &model, prediction) {
+            if let Some((fit, search, distance_m)) = self.consensus(cfg, &model, prediction) {
                 out.inliers = fit.inliers;
                 out.heading_change_rad =
                     (fit.heading_sd_rad <= s.image_max_heading_sd_rad).then_some(fit.params.alpha);
@@ -243,12 +248,17 @@ impl<const K: usize> ImageHeading<K> {
                 out.elevation_rad = fit.params.elevation;
                 out.azimuth_rad = fit.params.azimuth;
                 out.inliers_above_horizon = self.above_horizon();
+                let inlier = self.inlier.get(..self.pairs.len()).unwrap_or_default();
+                out.swing_rad_per_m = if true {
+                    consensus::swing_rad_per_m(&model, &self.pairs, inlier, &fit, &search)
+                } else {
+                    None
+                };
                 // The road's plane serves the learned pitch and roll alone.
                 let learns = s.learn_pitch || s.learn_roll;
                 let travelled_m = distance_m
                     .or(prediction.map(|m| m.distance_m))
                     .filter(|_| learns);
-                let inlier = self.inlier.get(..self.pairs.len()).unwrap_or_default();
                 let scales = (cfg.config().camera.fx_px, fit.weights_px, s.image_inlier_px);
                 let (arm, far) = (model.swing_arm_m(), ROAD_REACH * s.window_far_m);
                 let half = ROAD_REACH * s.window_half_width_m;
@@ -550,17 +560,19 @@ impl<const K: usize> ImageHeading<K> {
         }
     }
 
-    /// The motion the pairs agree on, if enough do, and the distance where they found it.
+    /// The motion the pairs agree on, if enough do, the search it was found in, and the
+    /// distance where the pairs found it.
     fn consensus(
         &mut self,
         cfg: &ValidConfig,
         model: &Model,
         prediction: Option<Motion>,
-    ) -> Option<(Fit, Option<f32>)> {
+    ) -> Option<(Fit, Search, Option<f32>)> {
         let search = Self::search(cfg, prediction, self.typical_median_px);
         let min_inliers = cfg.settings().image_min_inliers;
         let mut fit = self.fit(model, &search, min_inliers)?;
         let mut distance_m = None;
+        let mut used = search;
         // Where the camera's swing in a turn makes the direction of travel hang on the
         // distance, the distance is found with the motion; only where pairs beyond the road
         // tell that direction (road alone cannot tell it from a turn).
@@ -583,6 +595,7 @@ impl<const K: usize> ImageHeading<K> {
             fit = match self.fit(model, &found, min_inliers) {
                 Some(fit) => {
                     distance_m = Some(found.distance_m);
+                    used = found;
                     fit
                 }
                 None => self.fit(model, &search, min_inliers)?,
@@ -591,6 +604,6 @@ impl<const K: usize> ImageHeading<K> {
         // The running mean of the fits' medians, over the latest TYPICAL_FITS.
         self.fits = (self.fits + 1).min(TYPICAL_FITS);
         self.typical_median_px += (fit.median_px - self.typical_median_px) / f32::from(self.fits);
-        Some((fit, distance_m))
+        Some((fit, used, distance_m))
     }
 }

@@ -42,8 +42,8 @@ pub struct RunArgs {
     #[arg(long)]
     skip_bad_frames: bool,
     /// Write the mount as the odometer learned it while driving (`learn_yaw`, `learn_pitch`,
-    /// `learn_roll`): the mount file with its yaw, pitch and roll turned by the learned
-    /// corrections, the rest as given.
+    /// `learn_roll`, `learn_x`): the mount file with its yaw, pitch and roll turned and its
+    /// camera moved ahead by the learned corrections, the rest as given.
     #[arg(long)]
     learned_mount: Option<PathBuf>,
 }
@@ -93,14 +93,17 @@ impl RunArgs {
             learned.mount.yaw_rad += rad(c.yaw());
             learned.mount.pitch_rad += rad(c.pitch());
             learned.mount.roll_rad += rad(c.roll());
+            let x_m = c.x_ahead().map_or(0.0, |(m, _)| m);
+            learned.mount.x_m += x_m;
             let note = format!(
                 "# Learned by `roadvo run` over {:.0} m of {}: yaw {:+.3} deg, pitch {:+.3} \
-                 deg, roll {:+.3} deg from the mount file's.\n",
+                 deg, roll {:+.3} deg, x {:+.3} m from the mount file's.\n",
                 c.distance_m,
                 self.seq.seq_dir.display(),
                 rad(c.yaw()).to_degrees(),
                 rad(c.pitch()).to_degrees(),
-                rad(c.roll()).to_degrees()
+                rad(c.roll()).to_degrees(),
+                x_m
             );
             // [camera] where the sequence has no calib.txt to give it (a video, a folder of
             // frames): the file must stand for it as the one given did.
@@ -210,7 +213,10 @@ fn print_summary(run: &RunOutput, out: &Path) {
     });
     let pitch = c.pitch().map(|e| format!("pitch {}", deg(e)));
     let roll = c.roll().map(|e| format!("roll {}", deg(e)));
-    let learned: Vec<String> = [yaw, pitch, roll].into_iter().flatten().collect();
+    let x = c
+        .x_ahead()
+        .map(|(m, sd)| format!("x {m:+.3} m (+-{sd:.3})"));
+    let learned: Vec<String> = [yaw, pitch, roll, x].into_iter().flatten().collect();
     if !learned.is_empty() {
         println!(
             "learned mount: {} from the mount file's, over {:.0} m of road",
