@@ -249,7 +249,7 @@ impl<const K: usize> ImageHeading<K> {
                 out.azimuth_rad = fit.params.azimuth;
                 out.inliers_above_horizon = self.above_horizon();
                 let inlier = self.inlier.get(..self.pairs.len()).unwrap_or_default();
-                out.swing_rad_per_m = if true {
+                out.swing_rad_per_m = if s.learn_x {
                     consensus::swing_rad_per_m(&model, &self.pairs, inlier, &fit, &search)
                 } else {
                     None
