@@ -480,7 +480,7 @@ impl<
             .filter(|i| i.inliers_above_horizon >= calibration::MIN_INLIERS_ABOVE_HORIZON);
         let travel = more_than_road.filter(|_| s.learn_pitch || s.learn_yaw);
         let swing = more_than_road
-            .filter(|i| s.learn_x && i.distance_m.is_none())
+            .filter(|_| s.learn_x)
             .and_then(|i| Some((i.azimuth_rad, i.swing_rad_per_m?)));
         let road_pitch = s.learn_pitch && travel.is_none();
         let road = image

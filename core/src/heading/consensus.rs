@@ -6,7 +6,7 @@
 //! the ideal arc by about a degree), the distance does not matter (it only scales `t`).
 
 use super::epipolar::{Model, Params, sampson};
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 
 /// A correspondence: the rays of one point in the previous and this frame (normalised image
 /// coordinates, z = 1).
@@ -66,6 +66,8 @@ const INLIER_SCALE: [f32; 3] = [3.0, 2.0, 1.0];
 /// on the s-course: 20 % too much turn in its bends without it).
 const TRAVEL_SD_RAD: f32 = 6.0 * core::f32::consts::PI / 180.0;
 const PAIR_SD_PX: f32 = 0.3;
+/// The prior's weight on the azimuth and the elevation in the normal equations.
+const TRAVEL_PRIOR: f32 = (PAIR_SD_PX / TRAVEL_SD_RAD) * (PAIR_SD_PX / TRAVEL_SD_RAD);
 
 /// The camera's move ahead the swing's derivative is taken over, metres
 /// ([`swing_rad_per_m`]): the model is linear in it.
@@ -153,10 +155,7 @@ fn columns<const K: usize>(pairs: &[Pair]) -> (Columns<K>, usize) {
 /// [`sampson`] computes it, operation for operation (the unit z terms written out: a product by
 /// one is exact): the products for many pairs at once, then the square roots one at a time.
 #[cfg(any(target_arch = "x86_64", target_arch = "aarch64"))]
-fn sampsons<const K: usize>(
-    e: &nalgebra::Matrix3<f32>,
-    (rays, n): (&Columns<K>, usize),
-) -> [f32; K] {
+fn sampsons<const K: usize>(e: &Matrix3<f32>, (rays, n): (&Columns<K>, usize)) -> [f32; K] {
     let [u1, v1, u2, v2] = rays;
     let mut num = [0.0f32; K];
     let mut den = [0.0f32; K];
@@ -282,19 +281,11 @@ pub fn refine(
         if n < min_inliers {
             return None;
         }
-        let base = model.essential(&p, s.distance_m);
-        let moved: [_; 5] = core::array::from_fn(|k| {
-            let mut a = p.to_array();
-            a[k] += DERIVATIVE_STEP;
-            model.essential(&Params::from_array(a), s.distance_m)
-        });
+        let (base, moved) = essentials(model, &p, s.distance_m);
         let mut jtj = [[0.0f32; 5]; 5];
         let mut jtr = [0.0f32; 5];
         for (c, _) in pairs.iter().zip(inlier.iter()).filter(|(_, k)| **k) {
-            let r = s.focal_px * sampson(&base, &c.x1, &c.x2);
-            let j: [f32; 5] = core::array::from_fn(|k| {
-                (s.focal_px * sampson(&moved[k], &c.x1, &c.x2) - r) / DERIVATIVE_STEP
-            });
+            let (r, j) = residual_jacobian(&base, &moved, c, s.focal_px);
             let w = cauchy(r, cauchy_px);
             for a in 0..5 {
                 jtr[a] += w * j[a] * r;
@@ -312,13 +303,12 @@ pub fn refine(
             }
         }
         // The prior on the direction of travel: azimuth and elevation (params 3 and 4) about 0.
-        let prior = (PAIR_SD_PX / TRAVEL_SD_RAD) * (PAIR_SD_PX / TRAVEL_SD_RAD);
         let a = p.to_array();
         for k in [3, 4] {
-            jtj[k][k] += prior;
-            jtr[k] += prior * a[k];
+            jtj[k][k] += TRAVEL_PRIOR;
+            jtr[k] += TRAVEL_PRIOR * a[k];
             if last {
-                gate_jtj[k][k] += prior;
+                gate_jtj[k][k] += TRAVEL_PRIOR;
             }
         }
         let delta = solve(jtj, jtr)?;
@@ -357,6 +347,32 @@ pub fn refine(
     })
 }
 
+/// The essential matrix at `p` over `distance_m`, and at `p` with each parameter moved by
+/// [`DERIVATIVE_STEP`] (for the numeric derivatives).
+fn essentials(model: &Model, p: &Params, distance_m: f32) -> (Matrix3<f32>, [Matrix3<f32>; 5]) {
+    let moved = core::array::from_fn(|k| {
+        let mut a = p.to_array();
+        a[k] += DERIVATIVE_STEP;
+        model.essential(&Params::from_array(a), distance_m)
+    });
+    (model.essential(p, distance_m), moved)
+}
+
+/// Pair `c`'s Sampson distance from `base`, pixels, and its derivatives in the five parameters
+/// from the `moved` essentials ([`essentials`]).
+fn residual_jacobian(
+    base: &Matrix3<f32>,
+    moved: &[Matrix3<f32>; 5],
+    c: &Pair,
+    focal_px: f32,
+) -> (f32, [f32; 5]) {
+    let r = focal_px * sampson(base, &c.x1, &c.x2);
+    let j = core::array::from_fn(|k| {
+        (focal_px * sampson(&moved[k], &c.x1, &c.x2) - r) / DERIVATIVE_STEP
+    });
+    (r, j)
+}
+
 /// How far a metre further ahead of the pivot than `model` draws it would move the camera's
 /// fitted direction of travel to the right, radians: the fit's response to the camera's
 /// distance ahead, through its normal equations at `fit` (the other parameters and the prior
@@ -371,21 +387,13 @@ pub fn swing_rad_per_m(
     fit: &Fit,
     s: &Search,
 ) -> Option<f32> {
-    let (p, a) = (fit.params, fit.params.to_array());
-    let base = model.essential(&p, s.distance_m);
-    let moved: [_; 5] = core::array::from_fn(|k| {
-        let mut a = a;
-        a[k] += DERIVATIVE_STEP;
-        model.essential(&Params::from_array(a), s.distance_m)
-    });
+    let p = fit.params;
+    let (base, moved) = essentials(model, &p, s.distance_m);
     let ahead = model.from_pivot(-SWING_STEP_M).essential(&p, s.distance_m);
     let mut jtj = [[0.0f32; 5]; 5];
     let mut jtx = [0.0f32; 5];
     for (c, _) in pairs.iter().zip(inlier).filter(|(_, k)| **k) {
-        let r = s.focal_px * sampson(&base, &c.x1, &c.x2);
-        let j: [f32; 5] = core::array::from_fn(|k| {
-            (s.focal_px * sampson(&moved[k], &c.x1, &c.x2) - r) / DERIVATIVE_STEP
-        });
+        let (r, j) = residual_jacobian(&base, &moved, c, s.focal_px);
         let jx = (s.focal_px * sampson(&ahead, &c.x1, &c.x2) - r) / SWING_STEP_M;
         let w = cauchy(r, fit.weights_px);
         for a in 0..5 {
@@ -395,9 +403,8 @@ pub fn swing_rad_per_m(
             }
         }
     }
-    let prior = (PAIR_SD_PX / TRAVEL_SD_RAD) * (PAIR_SD_PX / TRAVEL_SD_RAD);
     for k in [3, 4] {
-        jtj[k][k] += prior;
+        jtj[k][k] += TRAVEL_PRIOR;
     }
     // The parameters' change a metre ahead is -solve(jtj, jtx); the azimuth's, to the right.
     Some(solve(jtj, jtx)?[3])
@@ -419,7 +426,7 @@ pub fn objective(model: &Model, pairs: &[Pair], s: &Search, fit: &Fit) -> f32 {
             0.5 * c2 * libm::logf(1.0 + r * r / c2)
         })
         .sum();
-    let prior = 0.5 * (PAIR_SD_PX / TRAVEL_SD_RAD) * (PAIR_SD_PX / TRAVEL_SD_RAD);
+    let prior = 0.5 * TRAVEL_PRIOR;
     losses + prior * (p.azimuth * p.azimuth + p.elevation * p.elevation)
 }
 

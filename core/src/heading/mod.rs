@@ -123,7 +123,8 @@ pub struct ImageMotion {
     /// How far `azimuth_rad` would move right, radians, were the camera a metre further ahead
     /// of the pivot than the mount says: about the curvature driven where the pairs tell the
     /// travel from the turn ([`consensus::swing_rad_per_m`]); `None` without a motion, with
-    /// `learn_x` off, or where it cannot be told.
+    /// `learn_x` off, on a frame that sees nothing but road or whose distance the pairs
+    /// measured (`distance_m`), or where it cannot be told.
     pub swing_rad_per_m: Option<f32>,
     /// The distance travelled along the arc (from the pivot, as [`Motion::distance_m`]),
     /// metres, where the pairs measured it with the heading: in a slow, tight turn, from the
@@ -249,7 +250,11 @@ impl<const K: usize> ImageHeading<K> {
                 out.azimuth_rad = fit.params.azimuth;
                 out.inliers_above_horizon = self.above_horizon();
                 let inlier = self.inlier.get(..self.pairs.len()).unwrap_or_default();
-                out.swing_rad_per_m = if s.learn_x {
+                // Only where it measures the distance ahead of the axle: the frame sees more
+                // than the road, and the distance is not the one the swing was fitted to.
+                let swing_told =
+                    distance_m.is_none() && out.inliers_above_horizon >= MIN_INLIERS_ABOVE_HORIZON;
+                out.swing_rad_per_m = if s.learn_x && swing_told {
                     consensus::swing_rad_per_m(&model, &self.pairs, inlier, &fit, &search)
                 } else {
                     None
