@@ -20,7 +20,8 @@
 //!   camera pitched up by an error sees it below the horizontal of the mount file by the error.
 //!   Only frames whose inliers include points above the horizon measure it: on a scene of
 //!   nothing but road the direction trades against the pitch change and is biased. There the
-//!   road's own plane measures it: the whole image's pairs on the road move by its homography,
+//!   road's own plane measures it: the pairs on the road (the whole image's, and the ground
+//!   window's corners found again by patch, [`crate::ground_patches`]) move by its homography,
 //!   which with the camera's height known holds the body's pitch and roll to the road
 //!   ([`crate::heading::plane`]); the body's pitching and rolling average out.
 //! - **Roll.** From the road's plane alone, on every frame whose pairs on the road fit one

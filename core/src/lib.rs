@@ -60,6 +60,8 @@
 //!   a joint vote over the body's attitude, heading change and distance) and [`method::paper`]
 //!   (the paper's method as written).
 //! - [`tracks`]: the pool of tracked ground features.
+//! - [`ground_patches`]: the ground's matched corners found again by patch, pairs for the road's
+//!   plane.
 //! - [`odometer`]: [`Odometer::process`], the per-frame flow through all of the above.
 //! - [`smoother`]: an optional fixed-lag smoother of the heading, fed the odometer's estimates.
 //! - [`wire`]: the byte layouts shared with tools: a recorded drive for the firmware, the trace
@@ -73,6 +75,7 @@ extern crate std;
 pub mod calibration;
 pub mod config;
 pub mod frame;
+pub mod ground_patches;
 pub mod harris;
 pub mod heading;
 pub mod lens;

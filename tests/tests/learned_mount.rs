@@ -168,14 +168,16 @@ fn on_a_road_alone_the_road_s_plane_learns_the_pitch_and_the_roll() {
     let kept = run_sequence(&seq, &fixed, Some(Method::PitchVote)).unwrap();
     let c = learned.ran.calibration;
     let (pitch, roll) = (c.pitch().unwrap(), c.roll().unwrap());
-    assert!((pitch.rad.to_degrees() + 1.0).abs() < 0.25, "{c:?}");
-    assert!((roll.rad.to_degrees() + 1.0).abs() < 0.25, "{c:?}");
+    // The ground window's corners found again by patch give the plane most of its pairs: the
+    // pitch ends 0.07 deg short, the roll 0.12 (the image's pairs alone left them within 0.25).
+    assert!((pitch.rad.to_degrees() + 1.0).abs() < 0.1, "{c:?}");
+    assert!((roll.rad.to_degrees() + 1.0).abs() < 0.2, "{c:?}");
     assert_eq!(c.pitch_image, roadvo::Learned::NONE);
     let k = kept.ran.calibration;
     assert_eq!((k.pitch(), k.roll()), (None, None));
     // The path's length after the first 100 m against the truth's: the learned mount takes
     // most of the error away while its estimate, held short by its standard error, settles
-    // (1.036 against the file's 1.131 over this drive's 260 m).
+    // (1.013 against the file's 1.131 over this drive's 260 m).
     let from = settled_from(&truth);
     let ratio = |e: &[[f64; 12]]| {
         let report = evaluate(&truth[from..], &e[from..]).unwrap();
@@ -183,7 +185,7 @@ fn on_a_road_alone_the_road_s_plane_learns_the_pitch_and_the_roll() {
     };
     let (l, k) = (ratio(&learned.poses), ratio(&kept.poses));
     assert!(
-        (l - 1.0).abs() < 0.05 && (k - 1.0).abs() > 2.0 * (l - 1.0).abs(),
+        (l - 1.0).abs() < 0.02 && (k - 1.0).abs() > 5.0 * (l - 1.0).abs(),
         "path ratio after 100 m: learned {l:.3}, mount file's {k:.3}"
     );
 }

@@ -234,6 +234,11 @@ pub fn vote<const K: usize>(model: &Model, pairs: &[Pair], s: &Search) -> Option
     (best.1 > 0).then_some(best)
 }
 
+/// The scale of the robust weights, pixels, for a typical median distance `typical_px`.
+pub fn weights_px(typical_px: f32) -> f32 {
+    (CAUCHY_SDS * SD_PER_MEDIAN * typical_px).max(MIN_CAUCHY_PX)
+}
+
 /// Refines `start` on the correspondences within `inlier_px` of it (chosen again as it moves):
 /// Gauss-Newton on their Sampson distances, weighted robustly. `None` with fewer than
 /// `min_inliers` inliers or where the normal equations are singular.
@@ -264,12 +269,11 @@ pub fn refine(
         (kept.n, kept.median())
     };
     let weights_px = |median_px: f32| {
-        let typical = if s.typical_median_px > 0.0 {
+        weights_px(if s.typical_median_px > 0.0 {
             s.typical_median_px
         } else {
             median_px
-        };
-        (CAUCHY_SDS * SD_PER_MEDIAN * typical).max(MIN_CAUCHY_PX)
+        })
     };
     let mut choice = INLIER_SCALE.iter();
     let (mut n, median_px) = select(&p, inlier, choice.next().copied().unwrap_or(1.0));

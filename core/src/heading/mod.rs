@@ -34,10 +34,10 @@ use crate::calibration::MIN_INLIERS_ABOVE_HORIZON;
 use crate::config::ValidConfig;
 use crate::frame::Frame;
 use crate::motion::Motion;
-use crate::projection::Pixel;
+use crate::projection::{Camera, Pixel};
 use consensus::{Fit, Pair, Search};
 use corners::{Grid, ImageCorner};
-use epipolar::Model;
+use epipolar::{Model, Params};
 use heapless::Vec;
 use nalgebra::Vector3;
 use patch::Patch;
@@ -65,7 +65,7 @@ const MIN_DISTANCE_M: f32 = 0.1;
 
 /// The road's plane is fitted to the pairs on the ground window's lane, this many times as
 /// far ahead and as wide: the window is sized for the ground vote's corners, and the whole
-/// image's grid puts fewer there.
+/// image's grid puts more of its own beyond it.
 const ROAD_REACH: f32 = 2.0;
 
 /// Candidates a cell keeps for each feature it holds.
@@ -131,9 +131,17 @@ pub struct ImageMotion {
     /// camera's swing about the pivot
     /// ([`consensus::distance_factor`]); `None` elsewhere (the heading not standing included).
     pub distance_m: Option<f32>,
-    /// The road's plane under the last frame as the pairs on it show it; `None` where they
-    /// are too few or the motion too short, and with `learn_pitch` and `learn_roll` off.
-    pub road: Option<plane::Road>,
+}
+
+/// The ray of frame position (`u`, `v`), pixels: normalised image coordinates (z = 1) of its
+/// undistorted position; `None` where the lens has none.
+pub(crate) fn ray(camera: &Camera, u: f32, v: f32) -> Option<Vector3<f32>> {
+    let p = camera.undistort(Pixel { u_px: u, v_px: v })?;
+    Some(Vector3::new(
+        (p.u_px - camera.cx_px) / camera.fx_px,
+        (p.v_px - camera.cy_px) / camera.fy_px,
+        1.0,
+    ))
 }
 
 /// What the odometer knows of a frame's motion before its image is matched.
@@ -167,6 +175,9 @@ pub struct ImageHeading<const K: usize> {
     flow: [[Option<(i16, i16)>; CANDIDATES_PER_FEATURE]; K],
     pairs: Vec<Pair, K>,
     inlier: [bool; K],
+    /// The last frame's consensus, where it had one: its motion and its robust weights' scale,
+    /// pixels; the road's plane starts from them ([`Self::road`]).
+    fitted: Option<(Params, f32)>,
     /// The mean over the latest fits of their inliers' median distance from the motion,
     /// pixels, and over how many (up to [`TYPICAL_FITS`]): the camera's and the matcher's
     /// typical spread, the scale of the refinement's robust weights.
@@ -185,6 +196,7 @@ impl<const K: usize> ImageHeading<K> {
         flow: [[None; CANDIDATES_PER_FEATURE]; K],
         pairs: Vec::new(),
         inlier: [false; K],
+        fitted: None,
         typical_median_px: 0.0,
         fits: 0,
     };
@@ -228,6 +240,7 @@ impl<const K: usize> ImageHeading<K> {
             corners: self.candidates.as_flattened().iter().flatten().count() as u16,
             ..ImageMotion::default()
         };
+        self.fitted = None;
         if let Some(prior) = prior {
             // The vehicle's arc is drawn from the pivot: the camera swings about it in a turn.
             let model = self.model.from_pivot(prior.pivot_m);
@@ -259,25 +272,56 @@ impl<const K: usize> ImageHeading<K> {
                 } else {
                     None
                 };
-                // The road's plane serves the learned pitch and roll alone.
-                let learns = s.learn_pitch || s.learn_roll;
-                let travelled_m = distance_m
-                    .or(prediction.map(|m| m.distance_m))
-                    .filter(|_| learns);
-                let scales = (cfg.config().camera.fx_px, fit.weights_px, s.image_inlier_px);
-                let (arm, far) = (model.swing_arm_m(), ROAD_REACH * s.window_far_m);
-                let half = ROAD_REACH * s.window_half_width_m;
-                let on_road = |p: Vector3<f32>| {
-                    let ahead = p.x - arm;
-                    ahead > 0.0 && ahead < far && p.y.abs() < half
-                };
-                out.road = travelled_m.and_then(|d| {
-                    plane::fit(&model, &self.pairs, inlier, on_road, fit.params, d, scales)
-                });
+                self.fitted = Some((fit.params, fit.weights_px));
             }
         }
         self.keep_features(frame, grid);
         out
+    }
+
+    /// The road's plane under the last frame ([`plane::fit`]) from the pairs on it: this
+    /// frame's consensus's inliers, where it had one, and the ground window's `ground` pairs,
+    /// over the frame's `motion` (its arc drawn from `pivot_m`), started from the consensus's
+    /// motion or else from `motion`'s turn; `None` before the drive's first consensus.
+    pub fn road(
+        &self,
+        cfg: &ValidConfig,
+        pivot_m: f32,
+        motion: Motion,
+        ground: &[Pair],
+    ) -> Option<plane::Road> {
+        let s = cfg.settings();
+        let model = self.model.from_pivot(pivot_m);
+        // Without this frame's consensus, its robust weights' scale is the camera's typical
+        // one: none before the first consensus.
+        let turn = Params {
+            alpha: motion.heading_change_rad,
+            ..Params::default()
+        };
+        let typical =
+            (self.fits > 0).then(|| (turn, consensus::weights_px(self.typical_median_px)));
+        let (start, scale_px) = self.fitted.or(typical)?;
+        let n = if self.fitted.is_some() {
+            self.pairs.len()
+        } else {
+            0
+        };
+        let image = self.pairs.iter().zip(&self.inlier).take(n);
+        let pairs = || {
+            image
+                .clone()
+                .filter(|(_, k)| **k)
+                .map(|(c, _)| c)
+                .chain(ground)
+        };
+        let scales = (cfg.config().camera.fx_px, scale_px, s.image_inlier_px);
+        let (arm, far) = (model.swing_arm_m(), ROAD_REACH * s.window_far_m);
+        let half = ROAD_REACH * s.window_half_width_m;
+        let on_road = |p: Vector3<f32>| {
+            let ahead = p.x - arm;
+            ahead > 0.0 && ahead < far && p.y.abs() < half
+        };
+        plane::fit(&model, pairs, on_road, start, motion.distance_m, scales)
     }
 
     /// How many of the consensus's inliers the last frame saw above the horizon.
@@ -335,18 +379,6 @@ impl<const K: usize> ImageHeading<K> {
                 take(&c, None);
             }
         }
-    }
-
-    /// The ray of frame position (`u`, `v`), pixels: normalised image coordinates of its
-    /// undistorted position; `None` where it has none.
-    fn ray(cfg: &ValidConfig, u: f32, v: f32) -> Option<Vector3<f32>> {
-        let k = &cfg.config().camera;
-        let p = k.undistort(Pixel { u_px: u, v_px: v })?;
-        Some(Vector3::new(
-            (p.u_px - k.cx_px) / k.fx_px,
-            (p.v_px - k.cy_px) / k.fy_px,
-            1.0,
-        ))
     }
 
     /// The frame position, pixels, of the ray `x` (camera frame, in front of the camera).
@@ -435,7 +467,7 @@ impl<const K: usize> ImageHeading<K> {
                     (TRACKED_REACH_PX, TRACKED_REACH_PX),
                 ),
                 None => {
-                    let Some(ray) = Self::ray(cfg, pu, pv) else {
+                    let Some(ray) = ray(&cfg.config().camera, pu, pv) else {
                         continue;
                     };
                     let x = predicted.seen(&ray);
@@ -524,8 +556,8 @@ impl<const K: usize> ImageHeading<K> {
                 continue;
             };
             let (Some(x1), Some(x2)) = (
-                Self::ray(cfg, f32::from(p.u), f32::from(p.v)),
-                Self::ray(cfg, u, v),
+                ray(&cfg.config().camera, f32::from(p.u), f32::from(p.v)),
+                ray(&cfg.config().camera, u, v),
             ) else {
                 continue;
             };

@@ -272,13 +272,13 @@ fn quadric_minimum(c: [f32; 9]) -> (f32, f32, f32) {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::frame::SliceFrame;
     use std::vec::Vec;
 
     /// A smooth blob pattern shifted by (`du`, `dv`) pixels, sampled on a `w x h` grid.
-    fn blobs(w: usize, h: usize, du: f32, dv: f32, gain: f32) -> Vec<u8> {
+    pub(crate) fn blobs(w: usize, h: usize, du: f32, dv: f32, gain: f32) -> Vec<u8> {
         (0..w * h)
             .map(|i| {
                 let (x, y) = ((i % w) as f32 - du, (i / w) as f32 - dv);

@@ -1,12 +1,13 @@
-//! The road's plane from the whole image's pairs on it. Points of one plane seen from two
-//! places move by its homography, which holds the camera's rotation, its travel over the
-//! camera's height and the plane's normal: so with the height known, the pairs below the
-//! horizon tell the body's pitch and roll to the road under it and the distance travelled, a
-//! frame at a time, matched by appearance rather than by where the ground vote expects them.
-//! A Gauss-Newton fit over the motion's five parameters, the distance and the tilt, started
-//! from the consensus ([`super::consensus`]), on its inliers that meet the road where the
-//! caller takes it for road (the ground window's lane, twice as far and as wide), weighed
-//! robustly: points off the road (a car's flank, a kerb's face) leave it.
+//! The road's plane from the pairs on it. Points of one plane seen from two places move by its
+//! homography, which holds the camera's rotation, its travel over the camera's height and the
+//! plane's normal: so with the height known, the pairs below the horizon tell the body's pitch
+//! and roll to the road under it and the distance travelled, a frame at a time, matched by
+//! appearance rather than by where the ground vote expects them. A Gauss-Newton fit over the
+//! motion's five parameters, the distance and the tilt, started from the consensus
+//! ([`super::consensus`]), on the pairs that meet the road where the caller takes it for road
+//! (the ground window's lane, twice as far and as wide): the consensus's inliers and the ground
+//! window's corners found again by patch ([`crate::ground_patches`]), weighed robustly: points
+//! off the road (a car's flank, a kerb's face) leave it.
 
 use super::consensus::{Pair, cauchy, solve};
 use super::epipolar::{Model, Params, RoadMotion, Tilt};
@@ -76,15 +77,14 @@ fn residual(h: &RoadMotion, c: &Pair, focal_px: f32) -> Option<[f32; 2]> {
     Some([focal_px * (x2.x - c.x2.x), focal_px * (x2.y - c.x2.y)])
 }
 
-/// Fits the road's plane to the pairs `inlier` marks whose first ray meets the road where
+/// Fits the road's plane to the `pairs` whose first ray meets the road where
 /// `on_road` takes the point (vehicle frame, from the point the arc is drawn from), from the
 /// motion `start` over `distance_m`: residuals over `inlier_px` are set aside (more in the
 /// first steps), the rest weighed by Cauchy's weights at `scale_px`. `None` under
 /// [`MIN_PAIRS`] pairs or [`MIN_DISTANCE_M`], or where the normal equations are singular.
-pub fn fit(
+pub fn fit<'a, I: Iterator<Item = &'a Pair>>(
     model: &Model,
-    pairs: &[Pair],
-    inlier: &[bool],
+    pairs: impl Fn() -> I,
     on_road: impl Fn(Vector3<f32>) -> bool,
     start: Params,
     distance_m: f32,
@@ -100,11 +100,7 @@ pub fn fit(
                 .road_point(Tilt::default(), &c.x1)
                 .is_some_and(&on_road)
         };
-        pairs
-            .iter()
-            .zip(inlier)
-            .filter(move |(c, k)| **k && road(c))
-            .map(|(c, _)| c)
+        pairs().filter(move |c| road(c))
     };
     let mut used = 0usize;
     let mut sum_sq = 0.0f32;
@@ -227,12 +223,10 @@ mod tests {
             roll: -0.7f32.to_radians(),
         };
         let pairs = road_pairs(&model, &truth, 0.9, tilt, 0.2);
-        let inlier = [true; 80];
         // Started from the level road and a distance 10 % short.
         let road = fit(
             &model,
-            &pairs,
-            &inlier,
+            || pairs.iter(),
             |_| true,
             truth,
             0.81,
@@ -256,11 +250,11 @@ mod tests {
         let tilt = Tilt::default();
         let pairs = road_pairs(&model, &p, 0.9, tilt, 0.0);
         let scales = (700.0, 0.3, 1.0);
-        let few = [[true; 10].as_slice(), &[false; 70]].concat();
-        assert_eq!(fit(&model, &pairs, &few, |_| true, p, 0.9, scales), None);
-        let all = [true; 80];
-        assert_eq!(fit(&model, &pairs, &all, |_| true, p, 0.1, scales), None);
+        let few = || pairs.iter().take(10);
+        assert_eq!(fit(&model, few, |_| true, p, 0.9, scales), None);
+        let all = || pairs.iter();
+        assert_eq!(fit(&model, all, |_| true, p, 0.1, scales), None);
         // None on the road where the caller says the road is not.
-        assert_eq!(fit(&model, &pairs, &all, |_| false, p, 0.9, scales), None);
+        assert_eq!(fit(&model, all, |_| false, p, 0.9, scales), None);
     }
 }

@@ -195,6 +195,23 @@ impl<const N: usize, const F: usize, const GRID: usize, const K: usize> Estimato
         }
     }
 
+    /// The road's plane under the last frame from the whole image's pairs on it and the
+    /// ground's `ground` pairs (pitch vote with `image_heading`; `None` otherwise).
+    pub fn road(
+        &self,
+        cfg: &ValidConfig,
+        pivot_m: f32,
+        motion: Motion,
+        ground: &[crate::heading::consensus::Pair],
+    ) -> Option<crate::heading::plane::Road> {
+        match self {
+            Self::PitchVote(pv) if cfg.settings().image_heading => {
+                pv.image.road(cfg, pivot_m, motion, ground)
+            }
+            _ => None,
+        }
+    }
+
     /// Starts a track at each of the first frame's corners; returns those a full pool refused.
     pub fn start_tracks<const M: usize>(
         &self,

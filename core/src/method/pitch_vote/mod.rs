@@ -97,7 +97,7 @@ pub struct PitchVote<const N: usize, const F: usize, const GRID: usize, const K:
     /// Track i's observation in this frame, if matched.
     observed: [Option<Observation>; N],
     /// The heading change from the whole image.
-    image: ImageHeading<K>,
+    pub(crate) image: ImageHeading<K>,
 }
 
 impl<const N: usize, const F: usize, const GRID: usize, const K: usize> PitchVote<N, F, GRID, K> {
