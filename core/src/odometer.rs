@@ -451,7 +451,7 @@ impl<
         // by patch for the road's plane (step 12), and this frame's corners' patches are kept.
         let s = self.config.settings();
         let mut road_pairs = Vec::<Pair, MAX_ROAD_PAIRS>::new();
-        if s.learn_pitch || s.learn_roll {
+        if (s.learn_pitch || s.learn_roll) && self.config.whole_image() {
             let camera = &self.config.config().camera;
             if trusted {
                 let matched = (self.tracks.as_slice(), voted.observed);
@@ -461,7 +461,7 @@ impl<
             self.ground_patches.keep(frame, camera, voted.observations);
         }
         let observed = if trusted { voted.observed } else { &[] };
-        let (cfg, max_misses) = (&self.config, self.config.settings().track_max_misses);
+        let (cfg, max_misses) = (&self.config, s.track_max_misses);
         self.tracks.update(motion, observed, max_misses, |g| {
             cfg.in_window(g.moved_ahead(pivot_m))
         });

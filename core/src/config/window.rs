@@ -160,12 +160,18 @@ impl ValidConfig {
         (top <= bottom).then_some((top, bottom))
     }
 
-    /// The rows of each frame the odometer reads: every row with `image_heading` (the pitch
-    /// vote's heading from the whole image), else the region of interest and the corner
+    /// Whether the whole image's stage runs: the pitch vote with `image_heading`. It reads every
+    /// row, and its model and pairs fit the road's plane.
+    pub fn whole_image(&self) -> bool {
+        let s = &self.config.settings;
+        s.image_heading && s.method == crate::Method::PitchVote
+    }
+
+    /// The rows of each frame the odometer reads: every row with the whole image's stage
+    /// ([`whole_image`](Self::whole_image)), else the region of interest and the corner
     /// detector's border. A camera need deliver no others.
     pub fn rows_read(&self) -> core::ops::Range<u16> {
-        let s = &self.config.settings;
-        if s.image_heading && s.method == crate::Method::PitchVote {
+        if self.whole_image() {
             return 0..self.config.camera.height_px;
         }
         let roi = self.window.roi;

@@ -9,6 +9,8 @@ pub mod pitch_vote;
 use crate::calibration::SidewaysStep;
 use crate::config::{Method, ValidConfig};
 use crate::harris::Corners;
+use crate::heading::consensus::Pair;
+use crate::heading::plane::Road;
 use crate::heading::{ImageMotion, ImagePrior};
 use crate::motion::Motion;
 use crate::projection::Attitude;
@@ -196,18 +198,17 @@ impl<const N: usize, const F: usize, const GRID: usize, const K: usize> Estimato
     }
 
     /// The road's plane under the last frame from the whole image's pairs on it and the
-    /// ground's `ground` pairs (pitch vote with `image_heading`; `None` otherwise).
+    /// ground's `ground` pairs; `None` without the whole image's stage
+    /// ([`ValidConfig::whole_image`]).
     pub fn road(
         &self,
         cfg: &ValidConfig,
         pivot_m: f32,
         motion: Motion,
-        ground: &[crate::heading::consensus::Pair],
-    ) -> Option<crate::heading::plane::Road> {
+        ground: &[Pair],
+    ) -> Option<Road> {
         match self {
-            Self::PitchVote(pv) if cfg.settings().image_heading => {
-                pv.image.road(cfg, pivot_m, motion, ground)
-            }
+            Self::PitchVote(pv) if cfg.whole_image() => pv.image.road(cfg, pivot_m, motion, ground),
             _ => None,
         }
     }
