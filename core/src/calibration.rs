@@ -10,10 +10,11 @@
 //!   across the chord ([`crate::method::pitch_vote`]). The whole image's motion holds the
 //!   direction of travel too ([`crate::heading`]): a camera turned left by an error sees it to
 //!   the right of the chord by the error, on frames that see more than the road (as for the
-//!   pitch). That needs no road plane: a mount rolled by a degree shifts the ground's pairs
-//!   sideways in the bends, which the ground's step reads as a yaw (a few tenths of a degree in
-//!   town) and the image's direction does not. The two estimates are weighed by their
-//!   variances ([`Calibration::yaw`]); where the image measures, its is the tighter.
+//!   pitch); on frames that see nothing but road the road's plane holds it (its homography
+//!   holds the camera's travel, [`crate::heading::plane`]). Neither direction leans on the
+//!   mount's roll: a mount rolled by a degree shifts the ground's pairs sideways in the bends,
+//!   which the ground's step reads as a yaw (a few tenths of a degree in town). The two kinds
+//!   are weighed by their variances ([`Calibration::yaw`]); the direction is the tighter.
 //! - **Pitch.** The vehicle travels along the road, so over any stretch the direction of travel
 //!   lies in the road's plane; the body's pitching swings it about that plane frame by frame
 //!   but not on average. The whole image's motion holds that direction ([`crate::heading`]): a
@@ -38,7 +39,7 @@
 //! the noise of single frames averages out. The odometer turns the mount by
 //! [`Calibration::applied_yaw_rad`], [`Calibration::applied_pitch_rad`] and
 //! [`Calibration::applied_roll_rad`] and moves its camera by [`Calibration::applied_x_m`] (each
-//! estimate held short by a standard error) whenever one has moved by [`APPLY_STEP_RAD`] or
+//! estimate shrunk by its signal to noise: none within a standard error) whenever one has moved by [`APPLY_STEP_RAD`] or
 //! [`APPLY_STEP_M`].
 
 use crate::heading::plane::Road;
@@ -51,9 +52,6 @@ pub const FORGET_M: f32 = 1000.0;
 /// Road driven before the calibration is applied, metres: until then the configured mount
 /// stands.
 pub const SETTLE_M: f32 = 10.0;
-
-/// Standard errors of the estimate it is held short of when applied.
-pub const APPLY_SDS: f32 = 1.0;
 
 /// The change of a learned angle, radians, that turns the mount again (0.02 deg: a tenth of
 /// the yaw error that costs 0.005 deg/m).
@@ -350,25 +348,24 @@ pub struct AngleEstimate {
     pub sd_rad: f32,
 }
 
-/// The correction to turn the mount by, radians: none unless `settled`, then the estimate less
-/// [`APPLY_SDS`] of its standard errors towards the mount file's (none where it is within
-/// them), so that an estimate the road does not yet support leaves the mount as it is, and a
-/// clear error is turned away at once.
-fn held_short(estimate: Option<(f32, f32)>, settled: bool) -> f32 {
+/// The correction to turn the mount by, radians: none unless `settled`, then the estimate shrunk
+/// towards the mount file's by its variance over its square (the positive-part James-Stein
+/// rule; none within a standard error of the file's). An estimate the road does not yet
+/// support leaves the mount as it is, and a clear error is turned away all but whole (1 deg
+/// known to 0.1 deg: 0.99 of it). Holding each estimate a standard error short instead left
+/// that error in every frame's scale (`docs/experiments.md`, "The mount as estimated").
+fn shrunk(estimate: Option<(f32, f32)>, settled: bool) -> f32 {
     let Some((value, sd)) = estimate.filter(|_| settled) else {
         return 0.0;
     };
-    let margin = APPLY_SDS * sd;
-    if value > margin {
-        value - margin
-    } else if value < -margin {
-        value + margin
+    if value.abs() > sd {
+        value - sd * sd / value
     } else {
         0.0
     }
 }
 
-/// An angle estimate as `held_short` takes it.
+/// An angle estimate as `shrunk` takes it.
 fn pair(e: Option<AngleEstimate>) -> Option<(f32, f32)> {
     e.map(|e| (e.rad, e.sd_rad))
 }
@@ -381,7 +378,9 @@ pub struct Calibration {
     /// The yaw the ground's sideways step shows, counter-clockwise seen from above: the camera
     /// looks `yaw_ground.rad` further left than the mount file says.
     pub yaw_ground: Learned,
-    /// The yaw the whole image's direction of travel shows, as `yaw_ground`.
+    /// The yaw the direction of travel shows, as `yaw_ground`: the whole image's motion's on
+    /// frames that see more than the road, the road's plane's on frames that see nothing but
+    /// road.
     pub yaw_image: Learned,
     /// The pitch the whole image's direction of travel shows, nose up: the camera looks
     /// `pitch_image.rad` further up than the mount file says.
@@ -469,7 +468,7 @@ impl Calibration {
     /// The yaw correction to turn the mount by, radians (see [`Learned`]): none before the
     /// calibration is [`settled`](Self::settled).
     pub fn applied_yaw_rad(&self) -> f32 {
-        held_short(pair(self.yaw()), self.settled())
+        shrunk(pair(self.yaw()), self.settled())
     }
 
     /// The yaw learned, radians, and its standard error: the ground's and the image's
@@ -504,21 +503,19 @@ impl Calibration {
     pub fn applied_x_m(&self) -> f32 {
         let max = MAX_X_M;
         // max then min rather than clamp: no panic path for a bound the compiler cannot order.
-        held_short(self.x_ahead(), self.settled())
-            .max(-max)
-            .min(max)
+        shrunk(self.x_ahead(), self.settled()).max(-max).min(max)
     }
 
     /// The roll correction to turn the mount by, radians, as
     /// [`applied_yaw_rad`](Self::applied_yaw_rad).
     pub fn applied_roll_rad(&self) -> f32 {
-        held_short(pair(self.roll()), self.settled())
+        shrunk(pair(self.roll()), self.settled())
     }
 
     /// The pitch correction to turn the mount by, radians, as
     /// [`applied_yaw_rad`](Self::applied_yaw_rad).
     pub fn applied_pitch_rad(&self) -> f32 {
-        held_short(pair(self.pitch()), self.settled())
+        shrunk(pair(self.pitch()), self.settled())
     }
 
     /// Whether it rests on enough road ([`SETTLE_M`]) to be applied.
@@ -550,16 +547,21 @@ impl Calibration {
             .take(applied_yaw_rad - azimuth_rad, distance_m.abs(), distance_m);
     }
 
-    /// Takes one frame's road plane, seen through the mount turned by `applied` (the yaw
-    /// unused), over `distance_m` at a lateral acceleration of `lateral_m_s2` (to the left): as
-    /// `(pitch, roll)` say, its pitch (on a frame that sees nothing but road) and its roll.
+    /// Takes one frame's road plane, seen through the mount turned by `applied`, over
+    /// `distance_m` at a lateral acceleration of `lateral_m_s2` (to the left): as
+    /// `(pitch, roll, yaw)` say, its pitch (on a frame that sees nothing but road), its roll,
+    /// and its direction of travel as the yaw's ([`measure_yaw_image`](Self::measure_yaw_image);
+    /// on a frame that sees nothing but road).
     pub fn measure_road(
         &mut self,
         road: &Road,
         (distance_m, lateral_m_s2): (f32, f32),
         applied: Angles,
-        (pitch, roll): (bool, bool),
+        (pitch, roll, yaw): (bool, bool, bool),
     ) {
+        if yaw {
+            self.measure_yaw_image(road.azimuth_rad, distance_m, applied.yaw);
+        }
         if pitch {
             self.pitch_road
                 .take(applied.pitch + road.pitch_rad, distance_m.abs(), distance_m);
@@ -756,11 +758,12 @@ mod tests {
         }
     }
 
-    /// A frame's road plane: the body's pitch and roll to it.
+    /// A frame's road plane: the body's pitch and roll to it (the travel along the chord).
     fn road(pitch_rad: f32, roll_rad: f32) -> Road {
         Road {
             pitch_rad,
             roll_rad,
+            azimuth_rad: 0.0,
             distance_m: 0.8,
             pairs: 20,
             rms_px: 0.2,
@@ -768,10 +771,11 @@ mod tests {
     }
 
     #[test]
-    fn the_road_s_plane_measures_the_roll_and_on_road_alone_the_pitch() {
-        // A mount file rolled 1 deg too far left side up and pitched 0.5 deg too far down: the
-        // road's plane is seen rolled -1 deg and pitched +0.5 deg, +-0.5 deg a frame as the body
-        // sways. Half-way the mount is turned by the applied estimates, which the plane then
+    fn the_road_s_plane_measures_the_roll_and_on_road_alone_the_pitch_and_the_yaw() {
+        // A mount file rolled 1 deg too far left side up, pitched 0.5 deg too far down and
+        // turned 0.3 deg too far right: the road's plane is seen rolled -1 deg and pitched +0.5
+        // deg, +-0.5 deg a frame as the body sways, and the travel 0.3 deg right of the chord,
+        // as much. Half-way the mount is turned by the applied estimates, which the plane then
         // shows less of.
         let mut c = Calibration::NONE;
         let mut next = crate::test_rng::uniform(13u32);
@@ -781,31 +785,38 @@ mod tests {
                 c.drive(200.0);
                 applied.pitch = c.applied_pitch_rad();
                 applied.roll = c.applied_roll_rad();
+                applied.yaw = c.applied_yaw_rad();
                 assert!(
-                    applied.roll < deg(-0.8) && applied.roll > deg(-1.0),
+                    applied.roll < deg(-0.9) && applied.roll > deg(-1.1),
                     "{c:?}"
                 );
                 assert!(
-                    applied.pitch > deg(0.3) && applied.pitch < deg(0.5),
+                    applied.pitch > deg(0.4) && applied.pitch < deg(0.6),
                     "{c:?}"
                 );
+                assert!(applied.yaw > deg(0.2) && applied.yaw < deg(0.4), "{c:?}");
             }
-            let sway = |next: &mut dyn FnMut() -> f32| deg(1.0) * (next() - 0.5);
-            let seen = road(
-                deg(0.5) - applied.pitch + sway(&mut next),
-                deg(-1.0) - applied.roll + sway(&mut next),
-            );
-            c.measure_road(&seen, (0.8, 0.0), applied, (true, true));
+            let mut sway = |amplitude_deg: f32| deg(amplitude_deg) * (next() - 0.5);
+            let seen = Road {
+                azimuth_rad: applied.yaw - deg(0.3) + sway(1.0),
+                ..road(
+                    deg(0.5) - applied.pitch + sway(1.0),
+                    deg(-1.0) - applied.roll + sway(1.0),
+                )
+            };
+            c.measure_road(&seen, (0.8, 0.0), applied, (true, true, true));
         }
-        let (pitch, roll) = (c.pitch().unwrap(), c.roll().unwrap());
+        let (pitch, roll, yaw) = (c.pitch().unwrap(), c.roll().unwrap(), c.yaw().unwrap());
         assert!((pitch.rad - deg(0.5)).abs() < deg(0.05), "{c:?}");
         assert!((roll.rad + deg(1.0)).abs() < deg(0.05), "{c:?}");
+        assert!((yaw.rad - deg(0.3)).abs() < deg(0.05), "{c:?}");
         assert_eq!(c.pitch_image, Learned::NONE);
-        // A frame that sees beyond the road leaves the pitch to the image's direction of travel;
-        // with `learn_roll` off the roll stands.
+        assert_eq!(c.yaw_ground, Learned::NONE);
+        // A frame that sees beyond the road leaves the pitch and the yaw to the image's
+        // direction of travel; with `learn_roll` off the roll stands.
         let before = c;
         let far_road = road(deg(3.0), deg(3.0));
-        c.measure_road(&far_road, (0.8, 0.0), applied, (false, false));
+        c.measure_road(&far_road, (0.8, 0.0), applied, (false, false, false));
         assert_eq!(c, before);
     }
 
@@ -821,7 +832,7 @@ mod tests {
         for _ in 0..60 {
             let a = -3.8 + 0.2 * (next() - 0.5);
             let seen = road(0.0, lean(a) + deg(0.2) * (next() - 0.5));
-            c.measure_road(&seen, (1.0, a), Angles::ZERO, (false, true));
+            c.measure_road(&seen, (1.0, a), Angles::ZERO, (false, true, false));
         }
         let one_way = c.roll().unwrap();
         assert!(one_way.sd_rad > deg(1.0), "{one_way:?}");
@@ -830,7 +841,7 @@ mod tests {
         for k in 0..300 {
             let a = [0.0, 2.5, -1.0][k % 3] + 0.2 * (next() - 0.5);
             let seen = road(0.0, lean(a) + deg(0.2) * (next() - 0.5));
-            c.measure_road(&seen, (1.0, a), Angles::ZERO, (false, true));
+            c.measure_road(&seen, (1.0, a), Angles::ZERO, (false, true, false));
         }
         let r = c.roll().unwrap();
         assert!((r.rad - deg(0.5)).abs() < deg(0.05), "{r:?} {c:?}");
@@ -883,7 +894,7 @@ mod tests {
     fn the_pitch_is_the_mount_s_less_the_direction_of_travel_s_elevation() {
         // A mount file's pitch 1 deg too far down: the travel is seen 1 deg below the file's
         // horizontal, +-0.5 deg a frame as the body pitches; half-way, the mount turned up by
-        // the estimate held short of it, which raises the elevation seen by as much.
+        // the estimate shrunk by its signal to noise, which raises the elevation seen by as much.
         let mut c = Calibration::NONE;
         let mut next = crate::test_rng::uniform(7u32);
         let mut applied = 0.0;
@@ -891,7 +902,10 @@ mod tests {
             if k == 200 {
                 c.drive(200.0);
                 applied = c.applied_pitch_rad();
-                assert!(applied > deg(0.8) && applied < deg(1.0), "{c:?}");
+                let e = c.pitch().unwrap();
+                assert!(applied > deg(0.9) && applied < e.rad, "{c:?}");
+                let expected = e.rad - e.sd_rad * e.sd_rad / e.rad;
+                assert!((applied - expected).abs() < 1e-7, "{applied} {expected}");
             }
             let elevation = applied - deg(1.0) + deg(1.0) * (next() - 0.5);
             c.measure_pitch(elevation, 0.8, applied);
@@ -954,11 +968,23 @@ mod tests {
         let expected = i.sd_rad * i.sd_rad / (i.sd_rad * i.sd_rad + g.sd_rad * g.sd_rad);
         assert!((share - expected).abs() < 1e-3, "{share} {expected}");
         assert!(share > 0.0 && share < 0.2, "{share}");
-        // The applied yaw is the weighed estimate held short by its standard error.
-        assert!(
-            (c.applied_yaw_rad() - (y.rad + y.sd_rad)).abs() < 1e-6,
-            "{c:?}"
-        );
+        // The applied yaw is the weighed estimate shrunk by its signal to noise.
+        assert!(y.rad.abs() > y.sd_rad, "{y:?}");
+        let expected = y.rad - y.sd_rad * y.sd_rad / y.rad;
+        assert!((c.applied_yaw_rad() - expected).abs() < 1e-7, "{c:?}");
+        // Within a standard error of the mount file's, nothing is applied.
+        let within = Calibration {
+            yaw_image: Learned {
+                rad: 0.5 * y.sd_rad,
+                ..c.yaw_image
+            },
+            yaw_ground: Learned {
+                rad: 0.5 * y.sd_rad,
+                ..c.yaw_ground
+            },
+            ..c
+        };
+        assert_eq!(within.applied_yaw_rad(), 0.0, "{:?}", within.yaw());
     }
 
     #[test]
@@ -995,7 +1021,7 @@ mod tests {
                 (x - 0.2).abs() < 0.02 && sd < 0.02,
                 "{share}: {x} {sd} {c:?}"
             );
-            assert!((c.applied_x_m() - (x - sd)).abs() < 1e-6);
+            assert!((c.applied_x_m() - (x - sd * sd / x)).abs() < 1e-6);
             // The line's intercept is the yaw.
             let yaw = c.swing.estimate(SWING_VAR).unwrap();
             assert!((yaw.rad - deg(0.3)).abs() < deg(0.02), "{yaw:?}");
@@ -1017,7 +1043,7 @@ mod tests {
                 &road,
                 (0.8, 0.1 * (k % 9) as f32),
                 Angles::ZERO,
-                (true, true),
+                (true, true, true),
             );
         }
         let bytes = c.to_bytes();

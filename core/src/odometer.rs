@@ -494,8 +494,8 @@ impl<
         // 12. Calibrate: a trusted frame's step across the chord feeds the learned yaw, the whole
         // image's direction of travel on a frame that sees more than the road the learned yaw
         // and pitch and the distance ahead of the axle, the road's plane the learned roll, and
-        // the pitch on a frame that sees nothing but road; they turn and move the mount once it
-        // has changed far enough.
+        // on a frame that sees nothing but road the pitch and the yaw (its tilt and its
+        // direction of travel); they turn and move the mount once it has changed far enough.
         let s = self.config.settings();
         let step = sideways.filter(|_| trusted && s.learn_yaw);
         let more_than_road = image
@@ -505,8 +505,11 @@ impl<
         let swing = more_than_road
             .filter(|_| s.learn_x)
             .and_then(|i| Some((i.azimuth_rad, i.swing_rad_per_m?)));
-        let road_pitch = s.learn_pitch && travel.is_none();
-        let road = (road_pitch || s.learn_roll)
+        let (road_pitch, road_yaw) = (
+            s.learn_pitch && more_than_road.is_none(),
+            s.learn_yaw && more_than_road.is_none(),
+        );
+        let road = (road_pitch || road_yaw || s.learn_roll)
             .then(|| {
                 self.estimator
                     .road(&self.config, pivot_m, motion, &road_pairs)
@@ -525,9 +528,9 @@ impl<
                 // The lateral acceleration the body leans against: speed times turn rate.
                 let dt = interval.secs_f32();
                 let lateral_m_s2 = d * motion.heading_change_rad / (dt * dt);
-                let (pitch, roll) = (road_pitch, s.learn_roll);
+                let takes = (road_pitch, s.learn_roll, road_yaw);
                 self.calibration
-                    .measure_road(&road, (d, lateral_m_s2), applied, (pitch, roll));
+                    .measure_road(&road, (d, lateral_m_s2), applied, takes);
             }
             if let Some(i) = travel {
                 if s.learn_pitch {
@@ -785,7 +788,7 @@ mod tests {
         assert_eq!(*odo.calibration(), Calibration::NONE);
         assert_eq!(odo.restore_calibration(learned), Ok(()));
         assert_eq!(*odo.calibration(), learned);
-        // The mount turned by the estimates held short by a standard error.
+        // The mount turned by the estimates shrunk by their signal to noise.
         let (now, file) = (&odo.config().config().mount, &cfg.config().mount);
         let turned = (now.yaw_rad - file.yaw_rad, now.pitch_rad - file.pitch_rad);
         let applied = (learned.applied_yaw_rad(), learned.applied_pitch_rad());
@@ -795,7 +798,7 @@ mod tests {
         );
         assert!(turned.0 > 0.4f32.to_radians(), "{turned:?}");
         assert!(turned.1 < -0.6f32.to_radians(), "{turned:?}");
-        // And its camera moved ahead by the distance held short the same way.
+        // And its camera moved ahead by the distance shrunk the same way.
         let moved_m = now.x_m - file.x_m;
         assert!((moved_m - learned.applied_x_m()).abs() < 1e-6, "{moved_m}");
         assert!(moved_m > 0.25 && moved_m < 0.3, "{moved_m}");

@@ -129,10 +129,12 @@ fn a_yaw_error_in_the_mount_file_is_learned_while_driving() {
     let learned = run_sequence(&seq, &told, Some(Method::PitchVote)).unwrap();
     let kept = run_sequence(&seq, &fixed, Some(Method::PitchVote)).unwrap();
     let c = learned.ran.calibration;
-    // The learned correction: -1 deg, to about its standard error (0.1 deg over this road).
+    // The learned correction: -1 deg, to about its standard error (0.06 deg over this road,
+    // where the road's plane gives the direction of travel: -0.957; the ground's steps alone
+    // read 0.8 of the error).
     let yaw = c.yaw().unwrap();
-    assert!((yaw.rad.to_degrees() + 1.0).abs() < 0.25, "{c:?}");
-    assert!(yaw.sd_rad.to_degrees() < 0.2, "{c:?}");
+    assert!((yaw.rad.to_degrees() + 1.0).abs() < 0.1, "{c:?}");
+    assert!(yaw.sd_rad.to_degrees() < 0.1, "{c:?}");
     assert_eq!(kept.ran.calibration.yaw(), None);
     // The error turned the ground's heading by about 0.09 deg/m; learned, it is gone after the
     // first tens of metres. Scored after the first 100 m (issue 21's measure): what the
@@ -169,15 +171,16 @@ fn on_a_road_alone_the_road_s_plane_learns_the_pitch_and_the_roll() {
     let c = learned.ran.calibration;
     let (pitch, roll) = (c.pitch().unwrap(), c.roll().unwrap());
     // The ground window's corners found again by patch give the plane most of its pairs: the
-    // pitch ends 0.07 deg short, the roll 0.12 (the image's pairs alone left them within 0.25).
+    // pitch ends at -1.018, the roll at -0.961 (the image's pairs alone left them within
+    // 0.25; the normal equations damped by a share of their trace, 0.07 and 0.12 short).
     assert!((pitch.rad.to_degrees() + 1.0).abs() < 0.1, "{c:?}");
-    assert!((roll.rad.to_degrees() + 1.0).abs() < 0.2, "{c:?}");
+    assert!((roll.rad.to_degrees() + 1.0).abs() < 0.1, "{c:?}");
     assert_eq!(c.pitch_image, roadvo::Learned::NONE);
     let k = kept.ran.calibration;
     assert_eq!((k.pitch(), k.roll()), (None, None));
     // The path's length after the first 100 m against the truth's: the learned mount takes
-    // most of the error away while its estimate, held short by its standard error, settles
-    // (1.013 against the file's 1.131 over this drive's 260 m).
+    // most of the error away while its estimate settles (0.987 against the file's 1.137 over
+    // this drive's 260 m).
     let from = settled_from(&truth);
     let ratio = |e: &[[f64; 12]]| {
         let report = evaluate(&truth[from..], &e[from..]).unwrap();
@@ -301,8 +304,8 @@ fn a_camera_placed_too_near_the_axle_is_moved_ahead_while_driving() {
     let (x_m, sd_m) = c.x_ahead().unwrap();
     assert!((x_m - 0.2).abs() < 0.05 && sd_m < 0.05, "{c:?}");
     assert_eq!(kept.ran.calibration.x_ahead(), None);
-    // The mount the poses are written through has its camera moved by the estimate held
-    // short by its standard error (to the step that moves it again).
+    // The mount the poses are written through has its camera moved by the estimate shrunk by
+    // its signal to noise (to the step that moves it again).
     let moved_m = learned.ran.config.config().mount.x_m - told.mount.x_m;
     let step = roadvo::calibration::APPLY_STEP_M;
     assert!((moved_m - c.applied_x_m()).abs() <= step, "{moved_m} {c:?}");

@@ -536,10 +536,28 @@ impl Median {
 
 /// Solves `a x = b` for a symmetric positive definite `a` (Cholesky), damped a little so that a
 /// direction the correspondences do not see stays where it is. `None` if it is singular.
-pub(crate) fn solve<const N: usize>(mut a: [[f32; N]; N], b: [f32; N]) -> Option<[f32; N]> {
-    let trace: f32 = (0..N).map(|k| a[k][k]).sum();
+///
+/// The system is first scaled to a unit diagonal, so that the damping is the same small share
+/// of each parameter's own information whatever its unit: damped by a share of the trace
+/// instead, the road plane's tilt (seen hundreds of times more weakly than the rotation)
+/// kept a quarter of the mount's pitch error in every frame.
+pub(crate) fn solve<const N: usize>(a: [[f32; N]; N], b: [f32; N]) -> Option<[f32; N]> {
+    // A parameter nothing sees (a zero diagonal) keeps a unit scale: the damping holds it.
+    let mut scale = [1.0f32; N];
+    for (k, s) in scale.iter_mut().enumerate() {
+        let d = a[k][k];
+        if d.is_nan() || d < 0.0 {
+            return None;
+        }
+        if d > 0.0 {
+            *s = 1.0 / libm::sqrtf(d);
+        }
+    }
+    let mut a: [[f32; N]; N] =
+        core::array::from_fn(|i| core::array::from_fn(|j| a[i][j] * scale[i] * scale[j]));
+    let b: [f32; N] = core::array::from_fn(|i| b[i] * scale[i]);
     for (k, row) in a.iter_mut().enumerate() {
-        row[k] += 1e-6 * trace + 1e-9;
+        row[k] += 1e-6 * N as f32;
     }
     let mut l = [[0.0f32; N]; N];
     for i in 0..N {
@@ -566,6 +584,7 @@ pub(crate) fn solve<const N: usize>(mut a: [[f32; N]; N], b: [f32; N]) -> Option
         let sum: f32 = (i + 1..N).map(|k| l[k][i] * x[k]).sum();
         x[i] = (y[i] - sum) / l[i][i];
     }
+    let x: [f32; N] = core::array::from_fn(|i| x[i] * scale[i]);
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
@@ -781,6 +800,29 @@ mod tests {
         let fit = refine(&model, &pairs, truth, &s, 20, &mut inlier).unwrap();
         assert!((fit.params.alpha - truth.alpha).abs() < 1e-5, "{fit:?}");
         assert_eq!(fit.inliers, 60);
+    }
+
+    #[test]
+    fn a_weakly_seen_parameter_is_solved_whatever_its_unit() {
+        // A rotation seen a million times more strongly than a tilt, correlated a little: both
+        // come out whole (damped by a share of the trace, the tilt came out at half its value).
+        let a = [[1e6, 10.0], [10.0, 1.0]];
+        let x = [1.0f32, 0.5];
+        let b = [
+            a[0][0] * x[0] + a[0][1] * x[1],
+            a[1][0] * x[0] + a[1][1] * x[1],
+        ];
+        let solved = solve(a, b).unwrap();
+        assert!((solved[0] - x[0]).abs() < 1e-4, "{solved:?}");
+        assert!((solved[1] - x[1]).abs() < 1e-4, "{solved:?}");
+        // A parameter nothing sees stays where it is; a negative diagonal is no system.
+        let unseen = solve([[4.0, 0.0], [0.0, 0.0]], [8.0, 0.0]).unwrap();
+        assert!(
+            (unseen[0] - 2.0).abs() < 1e-4 && unseen[1] == 0.0,
+            "{unseen:?}"
+        );
+        assert_eq!(solve([[-1.0, 0.0], [0.0, 1.0]], [1.0, 1.0]), None);
+        assert_eq!(solve([[f32::NAN, 0.0], [0.0, 1.0]], [1.0, 1.0]), None);
     }
 
     #[test]

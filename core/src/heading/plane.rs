@@ -22,6 +22,10 @@ pub struct Road {
     pub pitch_rad: f32,
     /// The body's roll (left side up) to the road, as `pitch_rad`.
     pub roll_rad: f32,
+    /// The direction of travel left of the arc's chord as the mount sets it, radians: on
+    /// average, the mount's yaw error less the camera's distance ahead of the axle's error
+    /// times the curvature ([`crate::calibration`]).
+    pub azimuth_rad: f32,
     /// The distance travelled, metres (from the pivot the motion is drawn from).
     pub distance_m: f32,
     /// Pairs that took part.
@@ -166,10 +170,11 @@ pub fn fit<'a, I: Iterator<Item = &'a Pair>>(
             return None;
         }
     }
-    let (_, d, t) = from_array(a);
+    let (p, d, t) = from_array(a);
     Some(Road {
         pitch_rad: t.pitch,
         roll_rad: t.roll,
+        azimuth_rad: p.azimuth,
         distance_m: d,
         pairs: u16::try_from(used).unwrap_or(u16::MAX),
         rms_px: libm::sqrtf(sum_sq / (2.0 * used as f32)),
