@@ -39,8 +39,8 @@
 //! the noise of single frames averages out. The odometer turns the mount by
 //! [`Calibration::applied_yaw_rad`], [`Calibration::applied_pitch_rad`] and
 //! [`Calibration::applied_roll_rad`] and moves its camera by [`Calibration::applied_x_m`] (each
-//! estimate shrunk by its signal to noise: none within a standard error) whenever one has moved by [`APPLY_STEP_RAD`] or
-//! [`APPLY_STEP_M`].
+//! estimate shrunk by its signal to noise: none within a standard error) whenever one has moved
+//! by [`APPLY_STEP_RAD`] or [`APPLY_STEP_M`].
 
 use crate::heading::plane::Road;
 

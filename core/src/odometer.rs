@@ -448,10 +448,11 @@ impl<
         // 10. Update the tracks (paper §2.3): matched ones take their observation, the others are
         // carried by the motion; an untrusted vote's matches are not evidence. The observations
         // no track took start tracks. Before they move, the matched ones' pairs are found again
-        // by patch for the road's plane (step 12), and this frame's corners' patches are kept.
+        // by patch for the road's plane (step 12: the pitch, the roll and, on road alone, the
+        // yaw learn from it), and this frame's corners' patches are kept.
         let s = self.config.settings();
         let mut road_pairs = Vec::<Pair, MAX_ROAD_PAIRS>::new();
-        if (s.learn_pitch || s.learn_roll) && self.config.whole_image() {
+        if (s.learn_pitch || s.learn_roll || s.learn_yaw) && self.config.whole_image() {
             let camera = &self.config.config().camera;
             if trusted {
                 let matched = (self.tracks.as_slice(), voted.observed);
