@@ -70,3 +70,27 @@ def true_turn(truth, i, m):
     poses)."""
     r = lambda p: [p[0:3], p[4:7], p[8:11]]
     return vehicle_turn(mul(transpose(r(truth[i - 1])), r(truth[i])), m)
+
+
+def drawn(truth, min_steps=4):
+    """The frames i (the step from frame i - 1) where the ground truth is drawn rather than
+    measured: a run of `min_steps` or more steps along which its track holds its direction,
+    each step within 1e-3 deg of the one before, while its heading turns by 0.01 deg or more a
+    frame. A measured track at a metre a step holds its direction that closely for two steps
+    by chance now and then (KITTI 02, 06 and 07 once each), never for four; a turning heading
+    over a straight track is a fill-in between fixes (KITTI 06's first 11 frames: a straight
+    line, the heading ramped at 0.039 deg a frame), with no turn to compare an estimate
+    against. A rendered drive's straight stretches do not turn, so none of its frames is
+    drawn."""
+    def track(i):
+        return math.degrees(math.atan2(truth[i][3] - truth[i - 1][3], truth[i][11] - truth[i - 1][11]))
+
+    out, run = set(), []
+    for i in range(1, len(truth) + 1):
+        if i < len(truth) and run and abs(track(i) - track(run[-1])) < 1e-3:
+            run.append(i)
+            continue
+        if len(run) >= min_steps:
+            out.update(j for j in run if abs(math.degrees(true_motion(truth, j)[0])) >= 0.01)
+        run = [i]
+    return out
