@@ -13,7 +13,7 @@
 
 // Words of a configuration ([`roadvo_configure`]): the camera's, the mount's and the odometer
 // settings', each in the core's order (`roadvo::wire::config_words`).
-#define ROADVO_CONFIG_WORDS 62
+#define ROADVO_CONFIG_WORDS 63
 
 // Words of an estimate's trace record ([`roadvo_trace_record`]): what the firmware examples
 // print and the host's `roadvo run --trace` writes, compared bit for bit.

@@ -166,6 +166,18 @@ const STEADY_SPEED_S: f32 = 1.0;
 /// matched by at most one track): past them the plane has all it needs.
 const MAX_ROAD_PAIRS: usize = 64;
 
+/// The geometric mean of two measurements of a frame's distance, metres: the ground vote's `a`
+/// and the road's plane's `b`. Their errors are nearly apart (the plane fits its own tilt, the
+/// vote its body pitch) and neither is the smaller on every road, so each counts alike, as a
+/// share of the distance. `a` where either is not a positive finite distance.
+fn geometric_mean_m(a: f32, b: f32) -> f32 {
+    if a > 0.0 && b > 0.0 && (a * b).is_finite() {
+        libm::sqrtf(a * b)
+    } else {
+        a
+    }
+}
+
 /// The odometer: every bit of state, sized by its parameters.
 ///
 /// - `MAX_TRACKS`: tracked features (default 128: two frames' worth of corners at 32 a side).
@@ -448,11 +460,12 @@ impl<
         // 10. Update the tracks (paper §2.3): matched ones take their observation, the others are
         // carried by the motion; an untrusted vote's matches are not evidence. The observations
         // no track took start tracks. Before they move, the matched ones' pairs are found again
-        // by patch for the road's plane (step 12: the pitch, the roll and, on road alone, the
-        // yaw learn from it), and this frame's corners' patches are kept.
+        // by patch for the road's plane (step 11: the distance and, in step 13, the pitch, the
+        // roll and, on road alone, the yaw from it), and this frame's corners' patches are kept.
         let s = self.config.settings();
         let mut road_pairs = Vec::<Pair, MAX_ROAD_PAIRS>::new();
-        if (s.learn_pitch || s.learn_roll || s.learn_yaw) && self.config.whole_image() {
+        let plane_used = s.learn_pitch || s.learn_roll || s.learn_yaw || s.road_distance;
+        if plane_used && self.config.whole_image() {
             let camera = &self.config.config().camera;
             if trusted {
                 let matched = (self.tracks.as_slice(), voted.observed);
@@ -481,7 +494,28 @@ impl<
             }
         }
         quality.take_image(image);
-        // 11. Integrate.
+        // 11. The road's plane, fitted to the whole image's pairs on it and the ground window's
+        // found again by patch: it measures the distance too (its homography's travel over the
+        // camera's height), apart from the vote's body pitch; where it stands the frame's
+        // distance is the geometric mean of the two (`road_distance`). Step 13 learns from it.
+        let more_than_road = image
+            .filter(|i| i.heading_change_rad.is_some())
+            .filter(|i| i.inliers_above_horizon >= calibration::MIN_INLIERS_ABOVE_HORIZON);
+        let (road_pitch, road_yaw) = (
+            s.learn_pitch && more_than_road.is_none(),
+            s.learn_yaw && more_than_road.is_none(),
+        );
+        let road_learns = road_pitch || road_yaw || s.learn_roll;
+        let road = (road_learns || s.road_distance)
+            .then(|| {
+                self.estimator
+                    .road(&self.config, pivot_m, motion, &road_pairs)
+            })
+            .flatten();
+        if let Some(r) = road.filter(|_| s.road_distance) {
+            motion.distance_m = geometric_mean_m(motion.distance_m, r.distance_m);
+        }
+        // 12. Integrate.
         self.state.pose = self.state.pose.advance(motion);
         self.state.motion = Some(motion);
         self.state.steady_speed_m_s = Some(self.steady_speed(motion, interval));
@@ -492,30 +526,17 @@ impl<
         };
         self.state.last_interval = interval;
         self.state.last_timestamp = Some(timestamp);
-        // 12. Calibrate: a trusted frame's step across the chord feeds the learned yaw, the whole
+        // 13. Calibrate: a trusted frame's step across the chord feeds the learned yaw, the whole
         // image's direction of travel on a frame that sees more than the road the learned yaw
         // and pitch and the distance ahead of the axle, the road's plane the learned roll, and
         // on a frame that sees nothing but road the pitch and the yaw (its tilt and its
         // direction of travel); they turn and move the mount once it has changed far enough.
-        let s = self.config.settings();
         let step = sideways.filter(|_| trusted && s.learn_yaw);
-        let more_than_road = image
-            .filter(|i| i.heading_change_rad.is_some())
-            .filter(|i| i.inliers_above_horizon >= calibration::MIN_INLIERS_ABOVE_HORIZON);
+        let road = road.filter(|_| road_learns);
         let travel = more_than_road.filter(|_| s.learn_pitch || s.learn_yaw);
         let swing = more_than_road
             .filter(|_| s.learn_x)
             .and_then(|i| Some((i.azimuth_rad, i.swing_rad_per_m?)));
-        let (road_pitch, road_yaw) = (
-            s.learn_pitch && more_than_road.is_none(),
-            s.learn_yaw && more_than_road.is_none(),
-        );
-        let road = (road_pitch || road_yaw || s.learn_roll)
-            .then(|| {
-                self.estimator
-                    .road(&self.config, pivot_m, motion, &road_pairs)
-            })
-            .flatten();
         if step.is_some() || travel.is_some() || road.is_some() || swing.is_some() {
             let (d, applied) = (motion.distance_m, self.applied_rad);
             self.calibration.drive(d);
@@ -666,6 +687,21 @@ mod tests {
     use crate::config::tests::kitti_config;
     use crate::frame::SliceFrame;
     use std::vec;
+
+    #[test]
+    fn the_plane_s_distance_counts_only_where_it_measured_one() {
+        assert_eq!(geometric_mean_m(1.0, 4.0), 2.0);
+        // Standing still, the vote's zero stands; a plane's distance that is no number, or
+        // whose product with the vote's is none, leaves the vote's.
+        for (a, b) in [
+            (0.0, 1.0),
+            (1.0, f32::NAN),
+            (1.0, f32::INFINITY),
+            (3e38, 3e38),
+        ] {
+            assert_eq!(geometric_mean_m(a, b), a, "{a} {b}");
+        }
+    }
 
     /// Whether `odo` takes `frame` at `t_us` as the first frame of a trajectory.
     fn starts_at(odo: &mut Odometer, frame: &SliceFrame, t_us: u64) -> bool {
