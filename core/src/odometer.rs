@@ -496,8 +496,8 @@ impl<
         quality.take_image(image);
         // 11. The road's plane, fitted to the whole image's pairs on it and the ground window's
         // found again by patch: it measures the distance too (its homography's travel over the
-        // camera's height), apart from the vote's body pitch; where it stands the frame's
-        // distance is the geometric mean of the two (`road_distance`). Step 13 learns from it.
+        // camera's height), apart from the vote's body pitch; with `road_distance`, where it
+        // stands, the frame's distance is the geometric mean of the two. Step 13 learns from it.
         let more_than_road = image
             .filter(|i| i.heading_change_rad.is_some())
             .filter(|i| i.inliers_above_horizon >= calibration::MIN_INLIERS_ABOVE_HORIZON);

@@ -235,12 +235,11 @@ fn a_calibration_kept_over_an_ignition_cycle_carries_on_where_it_stopped() {
 #[test]
 fn a_pitch_learned_in_town_kept_over_an_ignition_cycle_keeps_the_scale() {
     // The town (seen above the horizon, where the pitch is learned), its mount file pitched
-    // 1 deg up: the road seen farther than it is, the ground vote's distances about 13 % long
-    // until the pitch is learned (within the first 60 m or so; the road's plane, which fits
-    // its own tilt, takes half of that off the frame's distance). Cut at 70 m: the second
-    // part's scale restored is the one piece's; a cold start has the whole error to learn
-    // again (distance over the 99 frames after the cut 0.998 of the truth in one piece, 0.998
-    // restored, 1.021 cold).
+    // 1 deg up: the road seen farther than it is, the distances about 13 % long until the
+    // pitch is learned (within the first 60 m or so). Cut at 70 m: the second part's scale
+    // restored is the one piece's; a cold start has the whole error to learn again (learned
+    // -0.95 deg; distance over the 99 frames after the cut 1.009 of the truth in one piece,
+    // 1.017 restored, 1.062 cold).
     let dir = tempfile::tempdir().unwrap();
     let (seq, truth, told) = town(dir.path(), |m| m.pitch_rad += 1f32.to_radians());
     let cut = 100;
@@ -268,8 +267,8 @@ fn a_pitch_learned_in_town_kept_over_an_ignition_cycle_keeps_the_scale() {
     let (w, r, c) = (ratio(&whole), ratio(&restored), ratio(&cold));
     let say =
         format!("distance / truth after the cut: one piece {w:.3}, restored {r:.3}, cold {c:.3}");
-    assert!((r - w).abs() < 0.01, "{say}");
-    assert!((c - w).abs() > 3.0 * (r - w).abs().max(0.005), "{say}");
+    assert!((r - w).abs() < 0.02, "{say}");
+    assert!((c - w).abs() > 3.0 * (r - w).abs().max(0.01), "{say}");
 }
 
 #[test]
