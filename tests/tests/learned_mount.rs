@@ -6,34 +6,18 @@
 
 use roadvo::{AngleEstimate, Calibration, Estimate, Method, Odometer, SliceFrame, ValidConfig};
 use roadvo_sim::eval::{evaluate, heading_change_errors, true_step_m};
-use roadvo_sim::kitti::{Sequence, read_poses};
+use roadvo_sim::kitti::Sequence;
 use roadvo_sim::mount::MountFile;
-use roadvo_sim::run::{FrameSource, config_for, mount_for, run_sequence};
-use roadvo_sim::scenario::Scenario;
-use roadvo_sim::simulate::{poses_path, sequence_dir, simulate};
+use roadvo_sim::run::{FrameSource, config_for, run_sequence};
+
+mod common;
+use common::render;
 
 /// Frames of the kitti-like drive: about 260 m, its first two bends.
 const FRAMES: usize = 300;
 
 /// Road after which a learned mount is scored, metres.
 const SETTLED_M: f64 = 100.0;
-
-/// The first `frames` of `scenario` (seed 1, `overlays` on top) rendered into `dir`: the
-/// sequence, its truth, and the mount file beside it.
-fn render(
-    dir: &std::path::Path,
-    scenario: &str,
-    overlays: &[&str],
-    frames: usize,
-) -> (Sequence, Vec<[f64; 12]>, MountFile) {
-    let overlays: Vec<String> = overlays.iter().map(|o| o.to_string()).collect();
-    let sc = Scenario::load(scenario, &overlays).unwrap();
-    simulate(&sc, dir, 1, Some(frames), &()).unwrap();
-    let seq = Sequence::open(&sequence_dir(dir)).unwrap();
-    let truth = read_poses(&poses_path(dir)).unwrap();
-    let mount = mount_for(&seq, None).unwrap();
-    (seq, truth, mount)
-}
 
 /// Frames of the town drive: about 150 m.
 const TOWN_FRAMES: usize = 200;

@@ -4,11 +4,11 @@
 
 use roadvo::Method;
 use roadvo_sim::eval::{evaluate, true_step_m};
-use roadvo_sim::kitti::{Sequence, read_poses};
+use roadvo_sim::kitti::Sequence;
 use roadvo_sim::mount::MountFile;
-use roadvo_sim::run::{mount_for, run_sequence};
-use roadvo_sim::scenario::Scenario;
-use roadvo_sim::simulate::{poses_path, sequence_dir, simulate};
+use roadvo_sim::run::run_sequence;
+
+mod common;
 
 /// Frames of the drive: about 260 m, its first two bends.
 const FRAMES: usize = 300;
@@ -19,12 +19,12 @@ const START: usize = 20;
 /// kitti-like with suspension (seed 1), [`FRAMES`] of it rendered into `dir`: the sequence,
 /// its truth and its mount file (the true mount).
 fn render(dir: &std::path::Path) -> (Sequence, Vec<[f64; 12]>, MountFile) {
-    let sc = Scenario::load("kitti-like", &["suspension".to_string()]).unwrap();
-    simulate(&sc, dir, 1, Some(FRAMES), &()).unwrap();
-    let seq = Sequence::open(&sequence_dir(dir)).unwrap();
-    let truth = read_poses(&poses_path(dir)).unwrap();
-    let mount = mount_for(&seq, None).unwrap();
-    (seq, truth, mount)
+    common::render(dir, "kitti-like", &["suspension"], FRAMES)
+}
+
+/// The estimated path's length over the truth's.
+fn path_ratio(truth: &[[f64; 12]], est: &[[f64; 12]]) -> f64 {
+    evaluate(truth, est).unwrap().path_ratio.unwrap()
 }
 
 /// The camera's poses of a run of `seq` with `mount`, `road_distance` as given.
@@ -58,8 +58,7 @@ fn the_road_s_plane_steadies_each_frame_s_distance() {
         "steps' rms: with the plane {b:.4}, the vote's alone {v:.4}"
     );
     // The path's length holds (0.99..1.01 either way).
-    let ratio = |e: &[[f64; 12]]| evaluate(&truth, e).unwrap().path_ratio.unwrap();
-    let (rb, rv) = (ratio(&both), ratio(&vote));
+    let (rb, rv) = (path_ratio(&truth, &both), path_ratio(&truth, &vote));
     assert!(
         (rb - 1.0).abs() < 0.01,
         "path ratio {rb:.3} (the vote's alone {rv:.3})"
@@ -75,10 +74,9 @@ fn a_pitch_error_left_unlearned_lengthens_the_path_half_as_much() {
     let (seq, truth, mut told) = render(dir.path());
     told.mount.pitch_rad += 1f32.to_radians();
     told.settings.learn_pitch = false;
-    let ratio = |e: &[[f64; 12]]| evaluate(&truth, e).unwrap().path_ratio.unwrap();
     let (b, v) = (
-        ratio(&poses(&seq, &told, true)),
-        ratio(&poses(&seq, &told, false)),
+        path_ratio(&truth, &poses(&seq, &told, true)),
+        path_ratio(&truth, &poses(&seq, &told, false)),
     );
     assert!(
         v > 1.1 && (b - 1.0) < 0.6 * (v - 1.0),
