@@ -21,12 +21,12 @@
 
 #if defined(__arm__)
 // Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 32-bit Arm target.
-#define ROADVO_ODOMETER_SIZE 60400
+#define ROADVO_ODOMETER_SIZE 60408
 #endif
 
 #if defined(__x86_64__)
 // Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 64-bit host.
-#define ROADVO_ODOMETER_SIZE 60520
+#define ROADVO_ODOMETER_SIZE 60528
 #endif
 
 // Bytes of a saved calibration ([`roadvo_calibration_save`], [`roadvo_calibration_restore`]):

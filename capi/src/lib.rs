@@ -39,10 +39,10 @@ pub const ROADVO_TRACE_WORDS: usize = 11;
 
 /// Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 32-bit Arm target.
 #[cfg(target_arch = "arm")]
-pub const ROADVO_ODOMETER_SIZE: usize = 60_400;
+pub const ROADVO_ODOMETER_SIZE: usize = 60_408;
 /// Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 64-bit host.
 #[cfg(target_arch = "x86_64")]
-pub const ROADVO_ODOMETER_SIZE: usize = 60_520;
+pub const ROADVO_ODOMETER_SIZE: usize = 60_528;
 
 /// Bytes of a saved calibration ([`roadvo_calibration_save`], [`roadvo_calibration_restore`]):
 /// what a firmware keeps in non-volatile memory across ignition cycles.

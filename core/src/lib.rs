@@ -83,6 +83,7 @@ pub mod method;
 pub mod motion;
 pub mod odometer;
 pub mod projection;
+pub mod road_distance;
 pub mod setting;
 pub mod smoother;
 mod sort;

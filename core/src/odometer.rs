@@ -10,6 +10,7 @@ use crate::heading::consensus::Pair;
 use crate::heading::{ImageMotion, ImagePrior};
 use crate::method::{self, Estimator, Prior};
 use crate::motion::{Motion, Pose2};
+use crate::road_distance::RoadDistance;
 use crate::time::{Duration, Instant};
 use crate::tracks::{Track, Tracks};
 use core::fmt;
@@ -141,6 +142,8 @@ struct State {
     steady_speed_m_s: Option<f32>,
     /// Frames in a row that fell back.
     fallbacks: u8,
+    /// How far the road's plane's distance and the ground vote's have disagreed of late.
+    road_distance: RoadDistance,
 }
 
 impl State {
@@ -153,6 +156,7 @@ impl State {
         pivot_m: 0.0,
         steady_speed_m_s: None,
         fallbacks: 0,
+        road_distance: RoadDistance::START,
     };
 }
 
@@ -165,18 +169,6 @@ const STEADY_SPEED_S: f32 = 1.0;
 /// Most ground pairs a frame gives the road's plane (the default's 32 corners a side, each
 /// matched by at most one track): past them the plane has all it needs.
 const MAX_ROAD_PAIRS: usize = 64;
-
-/// The geometric mean of two measurements of a frame's distance, metres: the ground vote's `a`
-/// and the road's plane's `b`. Their errors are nearly apart (the plane fits its own tilt, the
-/// vote its body pitch) and neither is the smaller on every road, so each counts alike, as a
-/// share of the distance. `a` where either is not a positive finite distance.
-fn geometric_mean_m(a: f32, b: f32) -> f32 {
-    if a > 0.0 && b > 0.0 && (a * b).is_finite() {
-        libm::sqrtf(a * b)
-    } else {
-        a
-    }
-}
 
 /// The odometer: every bit of state, sized by its parameters.
 ///
@@ -497,7 +489,9 @@ impl<
         // 11. The road's plane, fitted to the whole image's pairs on it and the ground window's
         // found again by patch: it measures the distance too (its homography's travel over the
         // camera's height), apart from the vote's body pitch; with `road_distance`, where it
-        // stands, the frame's distance is the geometric mean of the two. Step 13 learns from it.
+        // stands and agrees with the vote's within a few spreads of their running disagreement,
+        // the frame's distance is the geometric mean of the two (else the one nearer the steady
+        // speed's). Step 13 learns from it.
         let more_than_road = image
             .filter(|i| i.heading_change_rad.is_some())
             .filter(|i| i.inliers_above_horizon >= calibration::MIN_INLIERS_ABOVE_HORIZON);
@@ -513,7 +507,10 @@ impl<
             })
             .flatten();
         if let Some(r) = road.filter(|_| s.road_distance) {
-            motion.distance_m = geometric_mean_m(motion.distance_m, r.distance_m);
+            let steady = self.state.steady_speed_m_s;
+            let predicted_m = steady.map_or(motion.distance_m, |v| v * interval.secs_f32());
+            let two = &mut self.state.road_distance;
+            motion.distance_m = two.blend(motion.distance_m, r.distance_m, predicted_m);
         }
         // 12. Integrate.
         self.state.pose = self.state.pose.advance(motion);
@@ -687,21 +684,6 @@ mod tests {
     use crate::config::tests::kitti_config;
     use crate::frame::SliceFrame;
     use std::vec;
-
-    #[test]
-    fn the_plane_s_distance_counts_only_where_it_measured_one() {
-        assert_eq!(geometric_mean_m(1.0, 4.0), 2.0);
-        // Standing still, the vote's zero stands; a plane's distance that is no number, or
-        // whose product with the vote's is none, leaves the vote's.
-        for (a, b) in [
-            (0.0, 1.0),
-            (1.0, f32::NAN),
-            (1.0, f32::INFINITY),
-            (3e38, 3e38),
-        ] {
-            assert_eq!(geometric_mean_m(a, b), a, "{a} {b}");
-        }
-    }
 
     /// Whether `odo` takes `frame` at `t_us` as the first frame of a trajectory.
     fn starts_at(odo: &mut Odometer, frame: &SliceFrame, t_us: u64) -> bool {

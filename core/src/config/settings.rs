@@ -224,10 +224,10 @@ settings! {
         /// Pitch vote with `image_heading`: the frame's distance measured by the road's plane
         /// too, its homography's travel over the camera's height where the whole image's pairs
         /// and the ground window's on the road determine it, and the geometric mean of it and
-        /// the ground vote's taken ([`crate::heading::plane`]); false (the default): the ground
-        /// vote's distance alone. Off until the plane's distance holds on a steep camera over
-        /// a pitching body and past a car crossing the window (docs/method.md, step 11).
-        road_distance: bool = val(false) => "road_distance";
+        /// the ground vote's taken ([`crate::road_distance`]) where the two agree within a few
+        /// spreads of their running disagreement (the default); false: the ground vote's
+        /// distance alone.
+        road_distance: bool = val(true) => "road_distance";
         /// Pitch vote with `image_heading`: the camera's distance ahead of the rear axle
         /// learned while driving (true): the whole image's direction of travel in the bends,
         /// against the curvature, moves the configured camera ([`crate::calibration`]); false:

@@ -45,7 +45,7 @@ const BAND: [f32; STEPS] = [8.0, 4.0, 2.0, 1.0, 1.0, 1.0];
 const MIN_PAIRS: usize = 12;
 /// Step of the numeric derivatives: radians for the angles, a share of the distance for it.
 const DERIVATIVE_STEP: f32 = 1e-4;
-/// Least distance the fit runs at, metres: under it the travel hardly moves the road's points
+/// Least distance the fit ends at, metres: under it the travel hardly moves the road's points
 /// and the plane is not seen.
 const MIN_DISTANCE_M: f32 = 0.2;
 
@@ -85,7 +85,8 @@ fn residual(h: &RoadMotion, c: &Pair, focal_px: f32) -> Option<[f32; 2]> {
 /// `on_road` takes the point (vehicle frame, from the point the arc is drawn from), from the
 /// motion `start` over `distance_m`: residuals over `inlier_px` are set aside (more in the
 /// first steps), the rest weighed by Cauchy's weights at `scale_px`. `None` under
-/// [`MIN_PAIRS`] pairs or [`MIN_DISTANCE_M`], or where the normal equations are singular.
+/// [`MIN_PAIRS`] pairs, where the fitted distance is under [`MIN_DISTANCE_M`], or where the
+/// normal equations are singular.
 pub fn fit<'a, I: Iterator<Item = &'a Pair>>(
     model: &Model,
     pairs: impl Fn() -> I,
@@ -94,10 +95,9 @@ pub fn fit<'a, I: Iterator<Item = &'a Pair>>(
     distance_m: f32,
     (focal_px, scale_px, inlier_px): (f32, f32, f32),
 ) -> Option<Road> {
-    if distance_m < MIN_DISTANCE_M {
-        return None;
-    }
-    let mut a = to_array(&start, distance_m, Tilt::default());
+    // Started from the least distance where the motion's is shorter: a start under it would
+    // leave out the frames whose motion ran short, and keep those that ran long.
+    let mut a = to_array(&start, distance_m.max(MIN_DISTANCE_M), Tilt::default());
     let chosen = || {
         let road = |c: &Pair| {
             model
@@ -258,8 +258,32 @@ mod tests {
         let few = || pairs.iter().take(10);
         assert_eq!(fit(&model, few, |_| true, p, 0.9, scales), None);
         let all = || pairs.iter();
-        assert_eq!(fit(&model, all, |_| true, p, 0.1, scales), None);
         // None on the road where the caller says the road is not.
         assert_eq!(fit(&model, all, |_| false, p, 0.9, scales), None);
+        // A step of 0.1 m is too short to see the plane, whatever the motion's distance says.
+        let short = road_pairs(&model, &p, 0.1, tilt, 0.0);
+        for start_m in [0.1, 0.9] {
+            let fitted = fit(&model, || short.iter(), |_| true, p, start_m, scales);
+            assert_eq!(fitted, None, "{start_m}");
+        }
+    }
+
+    #[test]
+    fn a_motion_that_ran_short_still_gets_the_plane_s_distance() {
+        // The plane fitted from a distance under its least, 0.05 m where the road moved 0.3 m:
+        // a frame whose vote ran short is measured as one that ran long.
+        let model = Model::new(&mount());
+        let p = Params::default();
+        let pairs = road_pairs(&model, &p, 0.3, Tilt::default(), 0.0);
+        let road = fit(
+            &model,
+            || pairs.iter(),
+            |_| true,
+            p,
+            0.05,
+            (700.0, 0.3, 1.0),
+        );
+        let road = road.expect("a fit");
+        assert!((road.distance_m - 0.3).abs() < 0.003, "{road:?}");
     }
 }
