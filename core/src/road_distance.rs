@@ -8,8 +8,8 @@
 //! spreads of their running disagreement the one nearer the steady speed's distance stands
 //! alone. No threshold is set by hand but how many spreads.
 
-/// Spreads of the running disagreement past which the plane's distance is set aside: a
-/// frame's log ratio is that far out by chance about once in a hundred frames.
+/// Spreads of the running disagreement past which one of the two distances is taken as
+/// thrown: a frame's log ratio is that far out by chance about once in a hundred frames.
 const GATE_SPREADS: f32 = 2.5;
 
 /// Least spread of the disagreement, as a log ratio (5 %): under any road's per-frame spread
