@@ -13,7 +13,7 @@
 
 // Words of a configuration ([`roadvo_configure`]): the camera's, the mount's and the odometer
 // settings', each in the core's order (`roadvo::wire::config_words`).
-#define ROADVO_CONFIG_WORDS 63
+#define ROADVO_CONFIG_WORDS 64
 
 // Words of an estimate's trace record ([`roadvo_trace_record`]): what the firmware examples
 // print and the host's `roadvo run --trace` writes, compared bit for bit.
@@ -21,12 +21,12 @@
 
 #if defined(__arm__)
 // Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 32-bit Arm target.
-#define ROADVO_ODOMETER_SIZE 60408
+#define ROADVO_ODOMETER_SIZE 60424
 #endif
 
 #if defined(__x86_64__)
 // Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 64-bit host.
-#define ROADVO_ODOMETER_SIZE 60528
+#define ROADVO_ODOMETER_SIZE 60544
 #endif
 
 // Bytes of a saved calibration ([`roadvo_calibration_save`], [`roadvo_calibration_restore`]):

@@ -31,7 +31,7 @@ use roadvo::{
 
 /// Words of a configuration ([`roadvo_configure`]): the camera's, the mount's and the odometer
 /// settings', each in the core's order (`roadvo::wire::config_words`).
-pub const ROADVO_CONFIG_WORDS: usize = 63;
+pub const ROADVO_CONFIG_WORDS: usize = 64;
 
 /// Words of an estimate's trace record ([`roadvo_trace_record`]): what the firmware examples
 /// print and the host's `roadvo run --trace` writes, compared bit for bit.
@@ -39,10 +39,10 @@ pub const ROADVO_TRACE_WORDS: usize = 11;
 
 /// Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 32-bit Arm target.
 #[cfg(target_arch = "arm")]
-pub const ROADVO_ODOMETER_SIZE: usize = 60_408;
+pub const ROADVO_ODOMETER_SIZE: usize = 60_424;
 /// Bytes of storage an odometer needs ([`roadvo_odometer_init`]), on a 64-bit host.
 #[cfg(target_arch = "x86_64")]
-pub const ROADVO_ODOMETER_SIZE: usize = 60_528;
+pub const ROADVO_ODOMETER_SIZE: usize = 60_544;
 
 /// Bytes of a saved calibration ([`roadvo_calibration_save`], [`roadvo_calibration_restore`]):
 /// what a firmware keeps in non-volatile memory across ignition cycles.

@@ -84,6 +84,7 @@ pub mod motion;
 pub mod odometer;
 pub mod projection;
 pub mod road_distance;
+pub mod road_heading;
 pub mod setting;
 pub mod smoother;
 mod sort;

@@ -11,6 +11,7 @@ use crate::heading::{ImageMotion, ImagePrior};
 use crate::method::{self, Estimator, Prior};
 use crate::motion::{Motion, Pose2};
 use crate::road_distance::RoadDistance;
+use crate::road_heading::RoadHeading;
 use crate::time::{Duration, Instant};
 use crate::tracks::{Track, Tracks};
 use core::fmt;
@@ -144,6 +145,9 @@ struct State {
     fallbacks: u8,
     /// How far the road's plane's distance and the ground vote's have disagreed of late.
     road_distance: RoadDistance,
+    /// How far the image's heading on road alone, the ground vote's and the prediction have
+    /// disagreed of late.
+    road_heading: RoadHeading,
 }
 
 impl State {
@@ -157,6 +161,7 @@ impl State {
         steady_speed_m_s: None,
         fallbacks: 0,
         road_distance: RoadDistance::START,
+        road_heading: RoadHeading::START,
     };
 }
 
@@ -411,6 +416,8 @@ impl<
                 steady_speed_m_s: self.state.steady_speed_m_s,
                 fallbacks: self.state.fallbacks,
                 image_heading_rad: image.and_then(|i| i.heading_change_rad),
+                ground_heading: self.config.settings().weigh_road_heading
+                    && image.is_some_and(|i| !i.sees_more_than_road()),
             },
             interval,
             pivot_m,
@@ -435,13 +442,22 @@ impl<
             (Some(m), None) if trusted => m,
             _ => prediction.unwrap_or(Motion::ZERO),
         };
+        // Where the image saw nothing but road, the ground's own heading weighs in.
         let image_heading_rad = image.and_then(|i| i.heading_change_rad);
-        let mut motion = match image_heading_rad {
-            Some(h) => Motion {
+        let mut motion = match (image_heading_rad, voted.ground_heading_rad) {
+            (Some(h), Some(g)) if trusted => Motion {
+                heading_change_rad: self.state.road_heading.weigh(
+                    h,
+                    g,
+                    prediction.map(|p| p.heading_change_rad),
+                ),
+                ..ground
+            },
+            (Some(h), _) => Motion {
                 heading_change_rad: h,
                 ..ground
             },
-            None => ground,
+            (None, _) => ground,
         };
         // In a slow, tight turn the image measures the distance too (the camera's swing about
         // the pivot), where the ground window often sees a verge or a bank: it stands.
@@ -492,9 +508,7 @@ impl<
         // stands and agrees with the vote's within a few spreads of their running disagreement,
         // the frame's distance is the geometric mean of the two (else the one nearer the steady
         // speed's). Step 13 learns from it.
-        let more_than_road = image
-            .filter(|i| i.heading_change_rad.is_some())
-            .filter(|i| i.inliers_above_horizon >= calibration::MIN_INLIERS_ABOVE_HORIZON);
+        let more_than_road = image.filter(ImageMotion::sees_more_than_road);
         let (road_pitch, road_yaw) = (
             s.learn_pitch && more_than_road.is_none(),
             s.learn_yaw && more_than_road.is_none(),

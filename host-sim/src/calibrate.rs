@@ -126,11 +126,15 @@ fn cost(
         .map(|mm| {
             let mut moved = *mount;
             moved.mount.height_m += mm * 1e-3;
-            // The mount as given: the reference the online calibration is compared with.
+            // The mount as given: the reference the online calibration is compared with. And
+            // the image's heading where it stands: weighed with the ground's on road alone, the
+            // heading answers to the mount twice, through a running weight, and on the s-course
+            // a yaw error's cost then falls as far with the roll turned the wrong way.
             moved.settings.learn_yaw = false;
             moved.settings.learn_pitch = false;
             moved.settings.learn_roll = false;
             moved.settings.learn_x = false;
+            moved.settings.weigh_road_heading = false;
             let Ok(config) = config_for(seq, &moved, method) else {
                 return Ok(f64::INFINITY);
             };

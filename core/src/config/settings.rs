@@ -228,6 +228,12 @@ settings! {
         /// spreads of their running disagreement (the default); false: the ground vote's
         /// distance alone.
         road_distance: bool = val(true) => "road_distance";
+        /// Pitch vote with `image_heading`: where the whole image's heading rests on the road
+        /// alone (fewer than [`crate::calibration::MIN_INLIERS_ABOVE_HORIZON`] inliers above
+        /// the horizon), the ground window's tracks vote for their own heading too and the two
+        /// are weighed by the variances their running disagreements give them
+        /// ([`crate::road_heading`]; the default); false: the image's heading stands.
+        weigh_road_heading: bool = val(true) => "weigh_road_heading";
         /// Pitch vote with `image_heading`: the camera's distance ahead of the rear axle
         /// learned while driving (true): the whole image's direction of travel in the bends,
         /// against the curvature, moves the configured camera ([`crate::calibration`]); false:

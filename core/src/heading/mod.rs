@@ -133,6 +133,15 @@ pub struct ImageMotion {
     pub distance_m: Option<f32>,
 }
 
+impl ImageMotion {
+    /// Whether its heading stands on points off the road's plane as well: at least
+    /// [`MIN_INLIERS_ABOVE_HORIZON`](crate::calibration::MIN_INLIERS_ABOVE_HORIZON) inliers
+    /// above the horizon.
+    pub fn sees_more_than_road(&self) -> bool {
+        self.heading_change_rad.is_some() && self.inliers_above_horizon >= MIN_INLIERS_ABOVE_HORIZON
+    }
+}
+
 /// The ray of frame position (`u`, `v`), pixels: normalised image coordinates (z = 1) of its
 /// undistorted position; `None` where the lens has none.
 pub(crate) fn ray(camera: &Camera, u: f32, v: f32) -> Option<Vector3<f32>> {

@@ -30,6 +30,9 @@ pub struct Prior {
     pub fallbacks: u8,
     /// The heading change the whole image gives, radians, where it gives one.
     pub image_heading_rad: Option<f32>,
+    /// Whether the ground's own heading change is wanted beside the image's (which then rests
+    /// on the road alone; see [`Outcome::ground_heading_rad`]).
+    pub ground_heading: bool,
 }
 
 /// What a frame's vote works with.
@@ -71,6 +74,10 @@ pub struct Outcome<'a, const F: usize> {
     pub observed: &'a [Option<Observation>],
     /// The frame's observations, the untaken of which start tracks.
     pub observations: &'a Observations<F>,
+    /// The heading change the ground window's tracks vote for on their own, radians, where the
+    /// prior asked for it and the vote was over distance at the image's heading; `None`
+    /// otherwise, and for the paper's method.
+    pub ground_heading_rad: Option<f32>,
 }
 
 impl<'a, const F: usize> Outcome<'a, F> {
@@ -85,6 +92,7 @@ impl<'a, const F: usize> Outcome<'a, F> {
             sideways: None,
             observed: &[],
             observations,
+            ground_heading_rad: None,
         }
     }
 

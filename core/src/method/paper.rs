@@ -184,6 +184,7 @@ impl<const N: usize, const F: usize, const GRID: usize> Paper<N, F, GRID> {
             sideways: None,
             observed: self.observed.get(..n).unwrap_or_default(),
             observations: &self.obs,
+            ground_heading_rad: None,
         }
     }
 

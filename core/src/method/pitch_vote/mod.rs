@@ -25,8 +25,12 @@
 //!    `refine_heading` the heading is refined from the pairs' residuals across the chord.
 //! 6. **Re-acquire**: after [`REACQUIRE_AFTER_FRAMES`] weakly supported frames in a row, a weak
 //!    frame also votes over the start-up window and takes that outcome on a clear majority.
-//! 7. **Weigh** (in the odometer): the vote against the prediction, the prediction weighing as
-//!    `prior_matches` tracks.
+//! 7. **The ground's own heading**: where the vote was over distance at a heading the whole
+//!    image took from the road alone (`weigh_road_heading`), steps 2 to 4 once more over the
+//!    window of the heading too, for the heading they find.
+//! 8. **Weigh** (in the odometer): the vote against the prediction, the prediction weighing as
+//!    `prior_matches` tracks; the image's heading and the ground's of step 7 by their running
+//!    disagreements ([`crate::road_heading`]).
 //!
 //! Corners that move with the vehicle ([`comoving`]) are set aside before all of it.
 
@@ -357,6 +361,20 @@ impl<const N: usize, const F: usize, const GRID: usize, const K: usize> PitchVot
                 matches = match_in(&mut self.search, observed, outcome.motion, &w);
             }
         }
+        // Step 7: where the vote was over distance at a heading the image took from the road
+        // alone, the ground's own: the vote again over its own window, its attitude corrections
+        // left as they were, the working memory put back for the observations.
+        let ground_heading_rad = (prior.ground_heading && prior.image_heading_rad.is_some())
+            .then(|| {
+                let own = Self::ground_window(cfg, prior, interval);
+                let (mut drift, spread) = (drift_before, prior.prediction.is_some());
+                let voted =
+                    self.search
+                        .estimate(cfg, &inputs, &own, self.attitude, &mut drift, spread);
+                self.search.restore(&inputs, &outcome);
+                voted.map(|v| v.motion.heading_change_rad)
+            })
+            .flatten();
         self.settle(cfg, &outcome, &matches, interval);
         Outcome {
             motion: Some(matches.refined(outcome.motion)),
@@ -367,6 +385,7 @@ impl<const N: usize, const F: usize, const GRID: usize, const K: usize> PitchVot
             sideways: matches.sideways_step(),
             observed: self.observed.get(..n).unwrap_or_default(),
             observations: &self.search.obs,
+            ground_heading_rad,
         }
     }
 
