@@ -85,6 +85,7 @@ pub mod odometer;
 pub mod projection;
 pub mod road_distance;
 pub mod road_heading;
+pub mod running_mean;
 pub mod setting;
 pub mod smoother;
 mod sort;

@@ -8,6 +8,8 @@
 //! spreads of their running disagreement the one nearer the steady speed's distance stands
 //! alone. No threshold is set by hand but how many spreads.
 
+use crate::running_mean::RunningMeans;
+
 /// Spreads of the running disagreement past which one of the two distances is taken as
 /// thrown: a frame's log ratio is that far out by chance about once in a hundred frames.
 const GATE_SPREADS: f32 = 2.5;
@@ -23,17 +25,14 @@ const FRAMES: u16 = 30;
 /// running mean square of the log of their ratio. All zeros before the first frame.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RoadDistance {
-    /// The running mean square of the log ratio (a share, squared).
-    var: f32,
-    /// Frames taken, up to [`FRAMES`].
-    frames: u16,
+    /// The running mean square of the log ratio (a share, squared), over up to [`FRAMES`].
+    var: RunningMeans<1>,
 }
 
 impl RoadDistance {
     /// Before the first frame.
     pub const START: Self = Self {
-        var: 0.0,
-        frames: 0,
+        var: RunningMeans::START,
     };
 
     /// The frame's distance, metres, from the ground vote's `vote_m` and the road's plane's
@@ -48,11 +47,11 @@ impl RoadDistance {
             return vote_m;
         }
         let log_ratio = libm::logf(plane_m / vote_m);
-        let bound = GATE_SPREADS * libm::sqrtf(self.var).max(MIN_SPREAD);
+        let [var] = self.var.means();
+        let bound = GATE_SPREADS * libm::sqrtf(var).max(MIN_SPREAD);
         let inside = log_ratio.abs() <= bound;
         let r = if inside { log_ratio } else { bound };
-        self.frames = self.frames.saturating_add(1).min(FRAMES);
-        self.var += (r * r - self.var) / f32::from(self.frames);
+        self.var.add([r * r], FRAMES);
         if inside {
             libm::sqrtf(vote_m * plane_m)
         } else {

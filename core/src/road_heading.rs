@@ -8,6 +8,8 @@
 //! change with errors apart (the image's, the ground's and the prediction, the last frame's
 //! motion) give each one's variance with no truth and no threshold set by hand.
 
+use crate::running_mean::RunningMeans;
+
 /// Frames the running mean squares are taken over, at most (5 s at 10 frames/s): a road's
 /// stretch, short enough to follow a change of surface.
 const FRAMES: u16 = 50;
@@ -20,35 +22,24 @@ const FIRST_FRAMES: u16 = 10;
 /// change, on the frames whose image sees nothing but road. All zeros before the first.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RoadHeading {
-    /// Running mean squares of the differences, radians squared: image less ground, image less
-    /// prediction, ground less prediction.
-    image_ground: f32,
-    image_predicted: f32,
-    ground_predicted: f32,
-    /// Frames taken, up to [`FRAMES`].
-    frames: u16,
+    /// Running mean squares of the differences over up to [`FRAMES`], radians squared: image
+    /// less ground, image less prediction, ground less prediction.
+    squares: RunningMeans<3>,
 }
 
 impl RoadHeading {
     /// Before the first frame.
     pub const START: Self = Self {
-        image_ground: 0.0,
-        image_predicted: 0.0,
-        ground_predicted: 0.0,
-        frames: 0,
+        squares: RunningMeans::START,
     };
 
     /// The variances of the image's and the ground's heading change the hat gives, radians
     /// squared, each at least zero; `None` before [`FIRST_FRAMES`] or where both are zero.
     pub fn variances(&self) -> Option<(f32, f32)> {
-        if self.frames < FIRST_FRAMES {
+        if self.squares.frames() < FIRST_FRAMES {
             return None;
         }
-        let (ig, ip, gp) = (
-            self.image_ground,
-            self.image_predicted,
-            self.ground_predicted,
-        );
+        let [ig, ip, gp] = self.squares.means();
         let image = (0.5 * (ig + ip - gp)).max(0.0);
         let ground = (0.5 * (ig + gp - ip)).max(0.0);
         let both = image + ground;
@@ -70,12 +61,7 @@ impl RoadHeading {
         if let Some(p) = predicted_rad {
             let d = [image_rad - ground_rad, image_rad - p, ground_rad - p];
             if d.iter().all(|d| d.is_finite()) {
-                self.frames = self.frames.saturating_add(1).min(FRAMES);
-                let n = f32::from(self.frames);
-                let [ig, ip, gp] = d;
-                self.image_ground += (ig * ig - self.image_ground) / n;
-                self.image_predicted += (ip * ip - self.image_predicted) / n;
-                self.ground_predicted += (gp * gp - self.ground_predicted) / n;
+                self.squares.add(d.map(|d| d * d), FRAMES);
             }
         }
         if weighed.is_finite() {
