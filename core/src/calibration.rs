@@ -4,17 +4,20 @@
 //! [`Calibration::from_bytes`]) and give back to the odometer after the next ignition
 //! ([`crate::Odometer::restore_calibration`]).
 //!
-//! - **Yaw.** A camera turned by a yaw error sees the road move off the arc's chord by the
-//!   error times the distance, in every frame, straight or turning; the body's roll shakes it
-//!   frame by frame but not on average. Each frame the ground's matched pairs measure that step
-//!   across the chord ([`crate::method::pitch_vote`]). The whole image's motion holds the
-//!   direction of travel too ([`crate::heading`]): a camera turned left by an error sees it to
-//!   the right of the chord by the error, on frames that see more than the road (as for the
-//!   pitch); on frames that see nothing but road the road's plane holds it (its homography
-//!   holds the camera's travel, [`crate::heading::plane`]). Neither direction leans on the
-//!   mount's roll: a mount rolled by a degree shifts the ground's pairs sideways in the bends,
-//!   which the ground's step reads as a yaw (a few tenths of a degree in town). The two kinds
-//!   are weighed by their variances ([`Calibration::yaw`]); the direction is the tighter.
+//! - **Yaw.** A camera turned about the vertical by an error sees the road move off the arc's
+//!   chord by the error times the distance, in every frame, straight or turning; the body's
+//!   roll shakes it frame by frame but not on average. Each frame the ground's matched pairs
+//!   measure that step across the chord ([`crate::method::pitch_vote`]). The whole image's
+//!   motion holds the direction of travel too ([`crate::heading`]): a camera turned left by an
+//!   error sees it to the right of the chord by the error, on frames that see more than the
+//!   road (as for the pitch); on frames that see nothing but road the road's plane holds it
+//!   (its homography holds the camera's travel, [`crate::heading::plane`]). The two kinds are
+//!   weighed by their variances ([`Calibration::turn`]); the direction is the tighter. Both
+//!   measure the camera's turn about the vertical, which a camera pitched down takes from its
+//!   roll too (the roll is about the optical axis: [`crate::projection::Mount::yaw_per_roll`]).
+//!   So they are kept as that turn, whatever roll the mount had when they were taken, and the
+//!   yaw is the turn less the learned roll's share ([`Calibration::yaw`]): evidence taken
+//!   before the roll was learned stays good after.
 //! - **Pitch.** The vehicle travels along the road, so over any stretch the direction of travel
 //!   lies in the road's plane; the body's pitching swings it about that plane frame by frame
 //!   but not on average. The whole image's motion holds that direction ([`crate::heading`]): a
@@ -375,12 +378,13 @@ fn pair(e: Option<AngleEstimate>) -> Option<(f32, f32)> {
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Calibration {
-    /// The yaw the ground's sideways step shows, counter-clockwise seen from above: the camera
-    /// looks `yaw_ground.rad` further left than the mount file says.
+    /// The camera's turn about the vertical the ground's sideways step shows, counter-clockwise
+    /// seen from above: the camera looks `yaw_ground.rad` further left than the mount file
+    /// says (its yaw and its roll's share, [`Calibration::yaw`]).
     pub yaw_ground: Learned,
-    /// The yaw the direction of travel shows, as `yaw_ground`: the whole image's motion's on
-    /// frames that see more than the road, the road's plane's on frames that see nothing but
-    /// road.
+    /// The camera's turn the direction of travel shows, as `yaw_ground`: the whole image's
+    /// motion's on frames that see more than the road, the road's plane's on frames that see
+    /// nothing but road.
     pub yaw_image: Learned,
     /// The pitch the whole image's direction of travel shows, nose up: the camera looks
     /// `pitch_image.rad` further up than the mount file says.
@@ -466,17 +470,36 @@ impl Calibration {
     pub const MAX_RAD: f32 = 10.0 * core::f32::consts::PI / 180.0;
 
     /// The yaw correction to turn the mount by, radians (see [`Learned`]): none before the
-    /// calibration is [`settled`](Self::settled).
-    pub fn applied_yaw_rad(&self) -> f32 {
-        shrunk(pair(self.yaw()), self.settled())
+    /// calibration is [`settled`](Self::settled). With the applied roll's share
+    /// (`yaw_per_roll`, the mount's [`crate::projection::Mount::yaw_per_roll`]) it turns the
+    /// camera about the vertical by the learned [`turn`](Self::turn), shrunk as the others.
+    pub fn applied_yaw_rad(&self, yaw_per_roll: f32) -> f32 {
+        shrunk(pair(self.turn()), self.settled()) - yaw_per_roll * self.applied_roll_rad()
     }
 
-    /// The yaw learned, radians, and its standard error: the ground's and the image's
-    /// estimates weighed by their variances (where the image measured, its estimate is the
-    /// tighter and stands on evidence the road's plane does not bend); `None` before either
-    /// measured.
-    pub fn yaw(&self) -> Option<AngleEstimate> {
+    /// The camera's turn about the vertical learned, radians, and its standard error: the
+    /// ground's and the image's estimates weighed by their variances (where the image measured,
+    /// its estimate is the tighter and stands on evidence the road's plane does not bend);
+    /// `None` before either measured.
+    pub fn turn(&self) -> Option<AngleEstimate> {
         weighed(&self.yaw_ground, &self.yaw_image)
+    }
+
+    /// The yaw learned, radians, and its standard error: the [`turn`](Self::turn) less the
+    /// learned roll's share of it (`yaw_per_roll`: the mount's
+    /// [`crate::projection::Mount::yaw_per_roll`]); `None` before the turn is measured.
+    pub fn yaw(&self, yaw_per_roll: f32) -> Option<AngleEstimate> {
+        let turn = self.turn()?;
+        Some(match self.roll() {
+            Some(roll) => {
+                let share = yaw_per_roll * roll.sd_rad;
+                AngleEstimate {
+                    rad: turn.rad - yaw_per_roll * roll.rad,
+                    sd_rad: libm::sqrtf(turn.sd_rad * turn.sd_rad + share * share),
+                }
+            }
+            None => turn,
+        })
     }
 
     /// The pitch learned, radians, and its standard error: the image's and the road's
@@ -531,23 +554,26 @@ impl Calibration {
         }
     }
 
-    /// Takes one frame's sideways step, seen through the mount turned by `applied_yaw_rad`:
-    /// the vehicle's step across the chord, positive left, over `distance_m`.
-    pub fn measure_yaw(&mut self, step: SidewaysStep, distance_m: f32, applied_yaw_rad: f32) {
-        let yaw_rad = applied_yaw_rad - step.sideways_m / distance_m;
+    /// Takes one frame's sideways step, seen through the mount turned about the vertical by
+    /// `applied_turn_rad` ([`Angles::turn_rad`]): the vehicle's step across the chord, positive
+    /// left, over `distance_m`.
+    pub fn measure_yaw(&mut self, step: SidewaysStep, distance_m: f32, applied_turn_rad: f32) {
+        let yaw_rad = applied_turn_rad - step.sideways_m / distance_m;
         self.yaw_ground
             .take(yaw_rad, distance_m.abs() * step.pairs, distance_m);
     }
 
     /// Takes one frame's direction of travel, `azimuth_rad` left of the arc's chord as the
-    /// mount turned by `applied_yaw_rad` sees it, over `distance_m`: a camera that looks
-    /// further left than its mount says sees the travel as far to the right.
-    pub fn measure_yaw_image(&mut self, azimuth_rad: f32, distance_m: f32, applied_yaw_rad: f32) {
+    /// mount turned about the vertical by `applied_turn_rad` ([`Angles::turn_rad`]) sees it,
+    /// over `distance_m`: a camera that looks further left than its mount says sees the travel
+    /// as far to the right.
+    pub fn measure_yaw_image(&mut self, azimuth_rad: f32, distance_m: f32, applied_turn_rad: f32) {
         self.yaw_image
-            .take(applied_yaw_rad - azimuth_rad, distance_m.abs(), distance_m);
+            .take(applied_turn_rad - azimuth_rad, distance_m.abs(), distance_m);
     }
 
-    /// Takes one frame's road plane, seen through the mount turned by `applied`, over
+    /// Takes one frame's road plane, seen through the mount turned by `applied` (whose roll
+    /// turns it about the vertical by `yaw_per_roll` a radian, [`Angles::turn_rad`]), over
     /// `distance_m` at a lateral acceleration of `lateral_m_s2` (to the left): as
     /// `(pitch, roll, yaw)` say, its pitch (on a frame that sees nothing but road), its roll,
     /// and its direction of travel as the yaw's ([`measure_yaw_image`](Self::measure_yaw_image);
@@ -556,11 +582,12 @@ impl Calibration {
         &mut self,
         road: &Road,
         (distance_m, lateral_m_s2): (f32, f32),
-        applied: Angles,
+        (applied, yaw_per_roll): (Angles, f32),
         (pitch, roll, yaw): (bool, bool, bool),
     ) {
         if yaw {
-            self.measure_yaw_image(road.azimuth_rad, distance_m, applied.yaw);
+            let turn = applied.turn_rad(yaw_per_roll);
+            self.measure_yaw_image(road.azimuth_rad, distance_m, turn);
         }
         if pitch {
             self.pitch_road
@@ -733,6 +760,13 @@ impl Angles {
         pitch: 0.0,
         roll: 0.0,
     };
+
+    /// The camera's turn about the vertical, radians, counter-clockwise seen from above: the
+    /// yaw and the roll's share, `yaw_per_roll` a radian of it (the mount's
+    /// [`crate::projection::Mount::yaw_per_roll`]).
+    pub fn turn_rad(&self, yaw_per_roll: f32) -> f32 {
+        self.yaw + yaw_per_roll * self.roll
+    }
 }
 
 /// FNV-1a over `bytes`, 32 bits.
@@ -785,7 +819,7 @@ mod tests {
                 c.drive(200.0);
                 applied.pitch = c.applied_pitch_rad();
                 applied.roll = c.applied_roll_rad();
-                applied.yaw = c.applied_yaw_rad();
+                applied.yaw = c.applied_yaw_rad(0.0);
                 assert!(
                     applied.roll < deg(-0.9) && applied.roll > deg(-1.1),
                     "{c:?}"
@@ -804,9 +838,9 @@ mod tests {
                     deg(-1.0) - applied.roll + sway(1.0),
                 )
             };
-            c.measure_road(&seen, (0.8, 0.0), applied, (true, true, true));
+            c.measure_road(&seen, (0.8, 0.0), (applied, 0.0), (true, true, true));
         }
-        let (pitch, roll, yaw) = (c.pitch().unwrap(), c.roll().unwrap(), c.yaw().unwrap());
+        let (pitch, roll, yaw) = (c.pitch().unwrap(), c.roll().unwrap(), c.yaw(0.0).unwrap());
         assert!((pitch.rad - deg(0.5)).abs() < deg(0.05), "{c:?}");
         assert!((roll.rad + deg(1.0)).abs() < deg(0.05), "{c:?}");
         assert!((yaw.rad - deg(0.3)).abs() < deg(0.05), "{c:?}");
@@ -816,8 +850,45 @@ mod tests {
         // direction of travel; with `learn_roll` off the roll stands.
         let before = c;
         let far_road = road(deg(3.0), deg(3.0));
-        c.measure_road(&far_road, (0.8, 0.0), applied, (false, false, false));
+        c.measure_road(&far_road, (0.8, 0.0), (applied, 0.0), (false, false, false));
         assert_eq!(c, before);
+    }
+
+    #[test]
+    fn a_pitched_camera_s_roll_turns_it_and_the_yaw_learned_before_the_roll_stays_good() {
+        // The paper's rig, pitched 20 deg down, its mount file rolled 1 deg too far left side
+        // up and its yaw right: the camera looks sin(20 deg) of a degree further left than the
+        // file says, and the road's travel shows it so until the roll is learned. Then the
+        // mount is turned by the applied estimates: the roll, and no yaw.
+        let yaw_per_roll = libm::sinf(deg(-20.0));
+        let true_turn = yaw_per_roll * deg(-1.0);
+        let mut c = Calibration::NONE;
+        let mut next = crate::test_rng::uniform(29u32);
+        let mut applied = Angles::ZERO;
+        for k in 0..400 {
+            if k == 200 {
+                c.drive(200.0);
+                applied.roll = c.applied_roll_rad();
+                applied.yaw = c.applied_yaw_rad(yaw_per_roll);
+                assert!((applied.roll + deg(1.0)).abs() < deg(0.1), "{c:?}");
+                assert!(applied.yaw.abs() < deg(0.05), "{applied:?}");
+            }
+            let mut sway = |amplitude_deg: f32| deg(amplitude_deg) * (next() - 0.5);
+            let seen = Road {
+                azimuth_rad: applied.turn_rad(yaw_per_roll) - true_turn + sway(1.0),
+                ..road(sway(1.0), deg(-1.0) - applied.roll + sway(1.0))
+            };
+            let takes = (false, true, true);
+            c.measure_road(&seen, (0.8, 0.0), (applied, yaw_per_roll), takes);
+        }
+        let turn = c.turn().unwrap();
+        assert!((turn.rad - true_turn).abs() < deg(0.05), "{c:?}");
+        assert!(c.yaw(yaw_per_roll).unwrap().rad.abs() < deg(0.05), "{c:?}");
+        // Read without the roll's share, the same evidence is a third of a degree of yaw.
+        assert!(
+            (c.yaw(0.0).unwrap().rad - true_turn).abs() < deg(0.05),
+            "{c:?}"
+        );
     }
 
     #[test]
@@ -832,7 +903,7 @@ mod tests {
         for _ in 0..60 {
             let a = -3.8 + 0.2 * (next() - 0.5);
             let seen = road(0.0, lean(a) + deg(0.2) * (next() - 0.5));
-            c.measure_road(&seen, (1.0, a), Angles::ZERO, (false, true, false));
+            c.measure_road(&seen, (1.0, a), (Angles::ZERO, 0.0), (false, true, false));
         }
         let one_way = c.roll().unwrap();
         assert!(one_way.sd_rad > deg(1.0), "{one_way:?}");
@@ -841,7 +912,7 @@ mod tests {
         for k in 0..300 {
             let a = [0.0, 2.5, -1.0][k % 3] + 0.2 * (next() - 0.5);
             let seen = road(0.0, lean(a) + deg(0.2) * (next() - 0.5));
-            c.measure_road(&seen, (1.0, a), Angles::ZERO, (false, true, false));
+            c.measure_road(&seen, (1.0, a), (Angles::ZERO, 0.0), (false, true, false));
         }
         let r = c.roll().unwrap();
         assert!((r.rad - deg(0.5)).abs() < deg(0.05), "{r:?} {c:?}");
@@ -912,7 +983,7 @@ mod tests {
         }
         assert!((c.pitch_image.rad - deg(1.0)).abs() < deg(0.05), "{c:?}");
         assert!(c.pitch_image.sd_rad().unwrap() < deg(0.05), "{c:?}");
-        assert_eq!(c.yaw(), None);
+        assert_eq!(c.yaw(0.0), None);
         // Not settled (no road counted): nothing applied.
         assert_eq!(
             Calibration {
@@ -935,12 +1006,12 @@ mod tests {
         }
         assert!((c.yaw_image.rad - deg(0.5)).abs() < deg(0.001), "{c:?}");
         assert_eq!(c.yaw_ground, Learned::NONE);
-        assert_eq!(c.yaw().map(|e| e.rad), Some(c.yaw_image.rad));
+        assert_eq!(c.yaw(0.0).map(|e| e.rad), Some(c.yaw_image.rad));
     }
 
     #[test]
     fn the_yaw_weighs_the_ground_s_and_the_image_s_by_their_variances() {
-        assert_eq!(Calibration::NONE.yaw(), None);
+        assert_eq!(Calibration::NONE.yaw(0.0), None);
         // The ground's steps say +0.5 deg, +-2 deg a frame; the image's direction of travel
         // -0.3 deg, +-0.3 deg a frame: the image's estimate is the tighter and mostly stands.
         let mut c = Calibration::NONE;
@@ -956,7 +1027,7 @@ mod tests {
             c.yaw_ground.estimate().unwrap(),
             c.yaw_image.estimate().unwrap(),
         );
-        let y = c.yaw().unwrap();
+        let y = c.yaw(0.0).unwrap();
         assert!((g.rad - deg(0.5)).abs() < 3.0 * g.sd_rad, "{g:?}");
         assert!((i.rad - deg(-0.3)).abs() < 3.0 * i.sd_rad, "{i:?}");
         assert!(
@@ -971,7 +1042,7 @@ mod tests {
         // The applied yaw is the weighed estimate shrunk by its signal to noise.
         assert!(y.rad.abs() > y.sd_rad, "{y:?}");
         let expected = y.rad - y.sd_rad * y.sd_rad / y.rad;
-        assert!((c.applied_yaw_rad() - expected).abs() < 1e-7, "{c:?}");
+        assert!((c.applied_yaw_rad(0.0) - expected).abs() < 1e-7, "{c:?}");
         // Within a standard error of the mount file's, nothing is applied.
         let within = Calibration {
             yaw_image: Learned {
@@ -984,7 +1055,7 @@ mod tests {
             },
             ..c
         };
-        assert_eq!(within.applied_yaw_rad(), 0.0, "{:?}", within.yaw());
+        assert_eq!(within.applied_yaw_rad(0.0), 0.0, "{:?}", within.yaw(0.0));
     }
 
     #[test]
@@ -1042,7 +1113,7 @@ mod tests {
             c.measure_road(
                 &road,
                 (0.8, 0.1 * (k % 9) as f32),
-                Angles::ZERO,
+                (Angles::ZERO, 0.0),
                 (true, true, true),
             );
         }

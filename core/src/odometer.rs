@@ -550,9 +550,11 @@ impl<
             .and_then(|i| Some((i.azimuth_rad, i.swing_rad_per_m?)));
         if step.is_some() || travel.is_some() || road.is_some() || swing.is_some() {
             let (d, applied) = (motion.distance_m, self.applied_rad);
+            let yaw_per_roll = self.config.config().mount.yaw_per_roll();
+            let turn = applied.turn_rad(yaw_per_roll);
             self.calibration.drive(d);
             if let Some(step) = step {
-                self.calibration.measure_yaw(step, d, applied.yaw);
+                self.calibration.measure_yaw(step, d, turn);
             }
             if let Some(swing) = swing {
                 self.calibration.measure_x_ahead(swing, d, self.applied_x_m);
@@ -562,6 +564,7 @@ impl<
                 let dt = interval.secs_f32();
                 let lateral_m_s2 = d * motion.heading_change_rad / (dt * dt);
                 let takes = (road_pitch, s.learn_roll, road_yaw);
+                let applied = (applied, yaw_per_roll);
                 self.calibration
                     .measure_road(&road, (d, lateral_m_s2), applied, takes);
             }
@@ -571,8 +574,7 @@ impl<
                         .measure_pitch(i.elevation_rad, d, applied.pitch);
                 }
                 if s.learn_yaw {
-                    self.calibration
-                        .measure_yaw_image(i.azimuth_rad, d, applied.yaw);
+                    self.calibration.measure_yaw_image(i.azimuth_rad, d, turn);
                 }
             }
             self.apply_calibration();
@@ -590,8 +592,9 @@ impl<
     /// changed mount that does not validate leaves the one in use.
     fn apply_calibration(&mut self) {
         let c = &self.calibration;
+        let yaw_per_roll = self.config.config().mount.yaw_per_roll();
         let applied = Angles {
-            yaw: c.applied_yaw_rad(),
+            yaw: c.applied_yaw_rad(yaw_per_roll),
             pitch: c.applied_pitch_rad(),
             roll: c.applied_roll_rad(),
         };
@@ -613,8 +616,14 @@ impl<
         if let Ok(changed) = config.validate() {
             self.config = changed;
             self.estimator.remount(&self.config);
-            // The ground's points are seen from a camera further ahead: the tracks go with it.
+            // The ground's points are seen from a camera further ahead and turned about the
+            // vertical: the tracks go with it, lest the ground vote read the turn as the car's.
             self.tracks.shift_ahead(applied_x_m - self.applied_x_m);
+            let turn = applied.turn_rad(yaw_per_roll) - now.turn_rad(yaw_per_roll);
+            // The tracks stand where they are seen from the pivot (`move_pivot`).
+            let camera = self.config.config().mount.ground_point();
+            self.tracks
+                .turn_about(camera.moved_ahead(-self.state.pivot_m), turn);
             self.applied_rad = applied;
             self.applied_x_m = applied_x_m;
         }
@@ -824,7 +833,10 @@ mod tests {
         // The mount turned by the estimates shrunk by their signal to noise.
         let (now, file) = (&odo.config().config().mount, &cfg.config().mount);
         let turned = (now.yaw_rad - file.yaw_rad, now.pitch_rad - file.pitch_rad);
-        let applied = (learned.applied_yaw_rad(), learned.applied_pitch_rad());
+        let applied = (
+            learned.applied_yaw_rad(file.yaw_per_roll()),
+            learned.applied_pitch_rad(),
+        );
         assert!(
             (turned.0 - applied.0).abs() < 1e-6 && (turned.1 - applied.1).abs() < 1e-6,
             "{turned:?}"

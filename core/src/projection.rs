@@ -194,6 +194,22 @@ impl Mount {
         body * mount * axes
     }
 
+    /// The camera's turn about the vehicle's vertical, radians, that a radian more of its roll
+    /// gives it: the roll is about the optical axis, which a camera pitched down points below
+    /// the horizontal, so part of it turns the camera left or right (the sine of the pitch:
+    /// a third of it on the paper's rig pitched 20 deg down, none on a level camera).
+    pub fn yaw_per_roll(&self) -> f32 {
+        libm::sinf(self.pitch_rad)
+    }
+
+    /// Where the camera stands over the road, metres, in the vehicle frame.
+    pub fn ground_point(&self) -> GroundPoint {
+        GroundPoint {
+            x_m: self.x_m,
+            y_m: self.y_m,
+        }
+    }
+
     /// Camera centre in the vehicle frame, metres.
     pub fn position_vehicle(&self) -> Vector3<f64> {
         Vector3::new(

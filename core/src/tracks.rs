@@ -159,6 +159,19 @@ impl<const N: usize> Tracks<N> {
         }
     }
 
+    /// Turns every track by `rad` (counter-clockwise seen from above) about `centre`: the road
+    /// as a camera standing over `centre` and turned by as much sees it.
+    pub fn turn_about(&mut self, centre: GroundPoint, rad: f32) {
+        let (sin, cos) = (libm::sinf(rad), libm::cosf(rad));
+        for t in self.items.iter_mut() {
+            let (dx, dy) = (t.ground.x_m - centre.x_m, t.ground.y_m - centre.y_m);
+            t.ground = GroundPoint {
+                x_m: centre.x_m + cos * dx - sin * dy,
+                y_m: centre.y_m + sin * dx + cos * dy,
+            };
+        }
+    }
+
     /// Starts a track at each observation; returns how many a full pool refused.
     pub fn spawn_all(&mut self, observations: impl Iterator<Item = Observation>) -> u16 {
         let mut refused = 0u16;
@@ -251,6 +264,20 @@ mod tests {
         let s = t.as_slice();
         assert_eq!((s[0].ground, s[1].ground), (at(7.75), at(9.75)));
         assert_eq!((s[0].misses, s[0].pixel), (0, Some(Pixel::default())));
+    }
+
+    #[test]
+    fn turning_about_the_camera_keeps_each_track_s_distance_from_it() {
+        let mut t = Tracks::<4>::default();
+        t.spawn(seen(11.5));
+        t.spawn(seen(1.5));
+        // A camera 1.5 m ahead turned a quarter turn left: the track 10 m ahead of it now
+        // stands 10 m to its left, the one under it stays.
+        t.turn_about(at(1.5), core::f32::consts::FRAC_PI_2);
+        let s = t.as_slice();
+        assert!((s[0].ground.x_m - 1.5).abs() < 1e-5, "{:?}", s[0].ground);
+        assert!((s[0].ground.y_m - 10.0).abs() < 1e-5, "{:?}", s[0].ground);
+        assert_eq!(s[1].ground, at(1.5));
     }
 
     #[test]

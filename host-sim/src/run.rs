@@ -435,7 +435,8 @@ pub struct QualityLine {
     image_matches: u16,
     image_inliers: u16,
     image_heading: bool,
-    /// The learned correction of the mount's yaw after the frame, radians ([`Calibration`]).
+    /// The learned correction of the mount's yaw after the frame, radians
+    /// ([`Calibration::yaw`]).
     learned_yaw_rad: f32,
     /// The learned correction of the mount's pitch after the frame, radians.
     learned_pitch_rad: f32,
@@ -450,8 +451,14 @@ pub struct QualityLine {
 
 impl QualityLine {
     /// Frame `frame`'s line, taken at `time_s`, for its estimate `e` and the odometer's
-    /// calibration `c` after it.
-    pub fn of(frame: usize, time_s: f64, e: &Estimate, c: &Calibration) -> Self {
+    /// calibration `c` after it, through a mount whose roll turns the camera by `yaw_per_roll`
+    /// ([`roadvo::projection::Mount::yaw_per_roll`]).
+    pub fn of(
+        frame: usize,
+        time_s: f64,
+        e: &Estimate,
+        (c, yaw_per_roll): (&Calibration, f32),
+    ) -> Self {
         let q = &e.quality;
         Self {
             frame,
@@ -476,7 +483,7 @@ impl QualityLine {
             image_matches: q.image_matches,
             image_inliers: q.image_inliers,
             image_heading: q.image_heading,
-            learned_yaw_rad: c.yaw().map_or(0.0, |e| e.rad),
+            learned_yaw_rad: c.yaw(yaw_per_roll).map_or(0.0, |e| e.rad),
             learned_pitch_rad: c.pitch().map_or(0.0, |e| e.rad),
             learned_roll_rad: c.roll().map_or(0.0, |e| e.rad),
             learned_x_m: c.x_ahead().map_or(0.0, |(m, _)| m),
@@ -572,7 +579,10 @@ pub fn run(
                 i,
                 source.time_s(i),
                 &est,
-                odo.calibration(),
+                (
+                    odo.calibration(),
+                    odo.config().config().mount.yaw_per_roll(),
+                ),
             ))?;
         }
         if let Some(out) = trace_out.as_mut() {

@@ -88,9 +88,10 @@ impl RunArgs {
         print_summary(&output, &self.out);
         if let Some(p) = &self.learned_mount {
             let c = &output.ran.calibration;
+            let yaw = c.yaw(output.ran.config.config().mount.yaw_per_roll());
             let mut learned = mount;
             let rad = |e: Option<AngleEstimate>| e.map_or(0.0, |e| e.rad);
-            learned.mount.yaw_rad += rad(c.yaw());
+            learned.mount.yaw_rad += rad(yaw);
             learned.mount.pitch_rad += rad(c.pitch());
             learned.mount.roll_rad += rad(c.roll());
             let x_m = c.x_ahead().map_or(0.0, |(m, _)| m);
@@ -100,7 +101,7 @@ impl RunArgs {
                  deg, roll {:+.3} deg, x {:+.3} m from the mount file's.\n",
                 c.distance_m,
                 self.seq.seq_dir.display(),
-                rad(c.yaw()).to_degrees(),
+                rad(yaw).to_degrees(),
                 rad(c.pitch()).to_degrees(),
                 rad(c.roll()).to_degrees(),
                 x_m
@@ -202,15 +203,18 @@ fn print_summary(run: &RunOutput, out: &Path) {
             e.sd_rad.to_degrees()
         )
     };
-    // The yaw with what each kind of evidence says of it: where the two disagree, the road's
-    // plane (a rolled mount, a banked road) is what the ground's step leans on.
-    let yaw = c.yaw().map(|e| {
-        let sources: Vec<String> = [("ground", &c.yaw_ground), ("image", &c.yaw_image)]
-            .into_iter()
-            .filter_map(|(source, l)| l.estimate().map(|e| format!("{source} {}", deg(e))))
-            .collect();
-        format!("yaw {} [{}]", deg(e), sources.join("; "))
-    });
+    // The yaw with the camera's turn about the vertical each kind of evidence shows (the yaw
+    // and the roll's share of it): where the two disagree, the road's plane (a rolled mount, a
+    // banked road) is what the ground's step leans on.
+    let yaw = c
+        .yaw(run.ran.config.config().mount.yaw_per_roll())
+        .map(|e| {
+            let sources: Vec<String> = [("ground", &c.yaw_ground), ("image", &c.yaw_image)]
+                .into_iter()
+                .filter_map(|(source, l)| l.estimate().map(|e| format!("{source} {}", deg(e))))
+                .collect();
+            format!("yaw {} [turn: {}]", deg(e), sources.join("; "))
+        });
     let pitch = c.pitch().map(|e| format!("pitch {}", deg(e)));
     let roll = c.roll().map(|e| format!("roll {}", deg(e)));
     let x = c
