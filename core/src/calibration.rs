@@ -470,11 +470,17 @@ impl Calibration {
     pub const MAX_RAD: f32 = 10.0 * core::f32::consts::PI / 180.0;
 
     /// The yaw correction to turn the mount by, radians (see [`Learned`]): none before the
-    /// calibration is [`settled`](Self::settled). With the applied roll's share
+    /// calibration is [`settled`](Self::settled), nor while no turn was measured (the mount
+    /// file's yaw stands, as with `learn_yaw` off). With the applied roll's share
     /// (`yaw_per_roll`, the mount's [`crate::projection::Mount::yaw_per_roll`]) it turns the
     /// camera about the vertical by the learned [`turn`](Self::turn), shrunk as the others.
     pub fn applied_yaw_rad(&self, yaw_per_roll: f32) -> f32 {
-        shrunk(pair(self.turn()), self.settled()) - yaw_per_roll * self.applied_roll_rad()
+        match self.turn().filter(|_| self.settled()) {
+            Some(turn) => {
+                shrunk(Some((turn.rad, turn.sd_rad)), true) - yaw_per_roll * self.applied_roll_rad()
+            }
+            None => 0.0,
+        }
     }
 
     /// The camera's turn about the vertical learned, radians, and its standard error: the
@@ -889,6 +895,17 @@ mod tests {
             (c.yaw(0.0).unwrap().rad - true_turn).abs() < deg(0.05),
             "{c:?}"
         );
+        // With no turn measured (`learn_yaw` off) the mount file's yaw stands.
+        let rolled_only = Calibration {
+            yaw_ground: Learned::NONE,
+            yaw_image: Learned::NONE,
+            ..c
+        };
+        assert!(
+            rolled_only.applied_roll_rad() < deg(-0.9),
+            "{rolled_only:?}"
+        );
+        assert_eq!(rolled_only.applied_yaw_rad(yaw_per_roll), 0.0);
     }
 
     #[test]
