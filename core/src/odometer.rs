@@ -1,7 +1,7 @@
 //! The per-frame flow: [`Odometer::process`] reads top-down as the method's steps, numbered as
 //! in `docs/method.md`.
 
-use crate::calibration::{self, Angles, Calibration, CalibrationError};
+use crate::calibration::{self, AngleEstimate, Angles, Calibration, CalibrationError};
 use crate::config::{ConfigError, ValidConfig};
 use crate::frame::Frame;
 use crate::ground_patches::GroundPatches;
@@ -299,6 +299,14 @@ impl<
     /// [`restore_calibration`](Self::restore_calibration).
     pub fn calibration(&self) -> &Calibration {
         &self.calibration
+    }
+
+    /// The learned correction of the mount file's yaw, radians, and its standard error: the
+    /// calibration's [`Calibration::yaw`] through the mount in use (its roll's share of the
+    /// turn, [`crate::projection::Mount::yaw_per_roll`]).
+    pub fn learned_yaw(&self) -> Option<AngleEstimate> {
+        let yaw_per_roll = self.config.config().mount.yaw_per_roll();
+        self.calibration.yaw(yaw_per_roll)
     }
 
     /// Takes a calibration learned before (with this configuration's mount): it stands from

@@ -198,10 +198,9 @@ fn replay(odometer: &mut Odometer) -> Result<(), Error> {
     );
     // What an ECU would keep in non-volatile memory for the next ignition.
     let c = odometer.calibration();
-    let yaw_per_roll = odometer.config().config().mount.yaw_per_roll();
     defmt::println!(
         "learned mount: yaw {=f32} rad, pitch {=f32} rad, roll {=f32} rad, x {=f32} m from the mount file's over {=f32} m; saved as {=[u8]:x}",
-        c.yaw(yaw_per_roll).map_or(0.0, |e| e.rad),
+        odometer.learned_yaw().map_or(0.0, |e| e.rad),
         c.pitch().map_or(0.0, |e| e.rad),
         c.roll().map_or(0.0, |e| e.rad),
         c.x_ahead().map_or(0.0, |(m, _)| m),

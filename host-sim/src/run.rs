@@ -13,8 +13,8 @@ use anyhow::{Context, Result, anyhow, bail};
 use image::GrayImage;
 use roadvo::wire::trace;
 use roadvo::{
-    Calibration, Camera, ConfigError, Estimate, Instant, Method, Odometer, Pose2, SliceFrame,
-    Smoother, ValidConfig,
+    AngleEstimate, Calibration, Camera, ConfigError, Estimate, Instant, Method, Odometer, Pose2,
+    SliceFrame, Smoother, ValidConfig,
 };
 use serde::Serialize;
 use std::borrow::Cow;
@@ -151,6 +151,13 @@ impl Skipped {
 }
 
 impl Ran {
+    /// The learned correction of the mount file's yaw after the last frame run, as
+    /// [`Odometer::learned_yaw`] gave it then.
+    pub fn learned_yaw(&self) -> Option<AngleEstimate> {
+        let yaw_per_roll = self.config.config().mount.yaw_per_roll();
+        self.calibration.yaw(yaw_per_roll)
+    }
+
     /// The timing of a run that went to the end; an error naming the frame otherwise.
     pub fn complete(self) -> Result<Timing> {
         match self.stopped {
@@ -450,16 +457,10 @@ pub struct QualityLine {
 }
 
 impl QualityLine {
-    /// Frame `frame`'s line, taken at `time_s`, for its estimate `e` and the odometer's
-    /// calibration `c` after it, through a mount whose roll turns the camera by `yaw_per_roll`
-    /// ([`roadvo::projection::Mount::yaw_per_roll`]).
-    pub fn of(
-        frame: usize,
-        time_s: f64,
-        e: &Estimate,
-        (c, yaw_per_roll): (&Calibration, f32),
-    ) -> Self {
-        let q = &e.quality;
+    /// Frame `frame`'s line, taken at `time_s`, for its estimate `e` and the mount `odo`
+    /// learned after it.
+    pub fn of(frame: usize, time_s: f64, e: &Estimate, odo: &Odometer) -> Self {
+        let (q, c) = (&e.quality, odo.calibration());
         Self {
             frame,
             time_s,
@@ -483,7 +484,7 @@ impl QualityLine {
             image_matches: q.image_matches,
             image_inliers: q.image_inliers,
             image_heading: q.image_heading,
-            learned_yaw_rad: c.yaw(yaw_per_roll).map_or(0.0, |e| e.rad),
+            learned_yaw_rad: odo.learned_yaw().map_or(0.0, |e| e.rad),
             learned_pitch_rad: c.pitch().map_or(0.0, |e| e.rad),
             learned_roll_rad: c.roll().map_or(0.0, |e| e.rad),
             learned_x_m: c.x_ahead().map_or(0.0, |(m, _)| m),
@@ -575,15 +576,7 @@ pub fn run(
         frames_run.push(i);
         let smoothed = trajectory.push(est, t);
         if let Some(out) = quality_out.as_mut() {
-            out.write(&QualityLine::of(
-                i,
-                source.time_s(i),
-                &est,
-                (
-                    odo.calibration(),
-                    odo.config().config().mount.yaw_per_roll(),
-                ),
-            ))?;
+            out.write(&QualityLine::of(i, source.time_s(i), &est, odo))?;
         }
         if let Some(out) = trace_out.as_mut() {
             out.write_line(&trace_line("estimate", i, &est))?;

@@ -201,9 +201,7 @@ impl PyOdometer {
             .ok_or_else(|| RoadvoError::new_err("the frame's buffer is too short"))?;
         let t = Instant::from_micros(kitti::micros(t_s));
         let estimate = self.odometer.process(&frame, t).map_err(error)?;
-        let yaw_per_roll = self.odometer.config().config().mount.yaw_per_roll();
-        let learned = (self.odometer.calibration(), yaw_per_roll);
-        let line = QualityLine::of(self.estimates, t_s, &estimate, learned);
+        let line = QualityLine::of(self.estimates, t_s, &estimate, &self.odometer);
         self.estimates += 1;
         Ok(pythonize::pythonize(py, &line)?)
     }

@@ -88,7 +88,7 @@ impl RunArgs {
         print_summary(&output, &self.out);
         if let Some(p) = &self.learned_mount {
             let c = &output.ran.calibration;
-            let yaw = c.yaw(output.ran.config.config().mount.yaw_per_roll());
+            let yaw = output.ran.learned_yaw();
             let mut learned = mount;
             let rad = |e: Option<AngleEstimate>| e.map_or(0.0, |e| e.rad);
             learned.mount.yaw_rad += rad(yaw);
@@ -206,15 +206,13 @@ fn print_summary(run: &RunOutput, out: &Path) {
     // The yaw with the camera's turn about the vertical each kind of evidence shows (the yaw
     // and the roll's share of it): where the two disagree, the road's plane (a rolled mount, a
     // banked road) is what the ground's step leans on.
-    let yaw = c
-        .yaw(run.ran.config.config().mount.yaw_per_roll())
-        .map(|e| {
-            let sources: Vec<String> = [("ground", &c.yaw_ground), ("image", &c.yaw_image)]
-                .into_iter()
-                .filter_map(|(source, l)| l.estimate().map(|e| format!("{source} {}", deg(e))))
-                .collect();
-            format!("yaw {} [turn: {}]", deg(e), sources.join("; "))
-        });
+    let yaw = run.ran.learned_yaw().map(|e| {
+        let sources: Vec<String> = [("ground", &c.yaw_ground), ("image", &c.yaw_image)]
+            .into_iter()
+            .filter_map(|(source, l)| l.estimate().map(|e| format!("{source} {}", deg(e))))
+            .collect();
+        format!("yaw {} [turn: {}]", deg(e), sources.join("; "))
+    });
     let pitch = c.pitch().map(|e| format!("pitch {}", deg(e)));
     let roll = c.roll().map(|e| format!("roll {}", deg(e)));
     let x = c
