@@ -130,7 +130,7 @@ pub enum RoadvoStatus {
     /// more than a frame outside the image, or the lens distortion does not invert over the
     /// frame.
     ImplausibleCamera = 24,
-    /// The bytes given are not a saved calibration (they do not start with its magic `rvc5`).
+    /// The bytes given are not a saved calibration (they do not start with its magic `rvc6`).
     CalibrationNotSaved = 25,
     /// A saved calibration's checksum does not match its fields: the memory that kept it was
     /// corrupted.

@@ -124,7 +124,10 @@ impl Learned {
 
     /// The estimate's standard error, radians; `None` before a frame measured.
     pub fn sd_rad(&self) -> Option<f32> {
-        (self.weight > 0.0).then(|| self.spread_rad * libm::sqrtf(self.weight_sq) / self.weight)
+        (self.weight > 0.0).then(|| {
+            let spread = warm_spread(self.spread_rad, self.weight, self.weight_sq);
+            spread * libm::sqrtf(self.weight_sq) / self.weight
+        })
     }
 
     /// The estimate and its standard error; `None` before a frame measured.
@@ -216,7 +219,7 @@ impl LearnedLine {
     /// `least_load_var`.
     pub fn slope_estimate(&self, least_load_var: f32) -> Option<(f32, f32)> {
         (self.weight > 0.0 && self.load_var > least_load_var).then(|| {
-            let sd = self.spread_rad * libm::sqrtf(self.weight_sq / self.load_var) / self.weight;
+            let sd = self.spread() * libm::sqrtf(self.weight_sq / self.load_var) / self.weight;
             (self.slope(least_load_var), sd)
         })
     }
@@ -229,9 +232,14 @@ impl LearnedLine {
             let lever = self.mean_load * self.mean_load / self.load_var.max(least_load_var);
             AngleEstimate {
                 rad: self.mean_rad - self.slope(least_load_var) * self.mean_load,
-                sd_rad: self.spread_rad * libm::sqrtf(self.weight_sq * (1.0 + lever)) / self.weight,
+                sd_rad: self.spread() * libm::sqrtf(self.weight_sq * (1.0 + lever)) / self.weight,
             }
         })
+    }
+
+    /// The spread about the line the standard errors take ([`warm_spread`]), radians.
+    fn spread(&self) -> f32 {
+        warm_spread(self.spread_rad, self.weight, self.weight_sq)
     }
 
     /// Takes one frame's measurement `rad` at `load`, weighing `w`, over `distance_m` of road,
@@ -306,13 +314,21 @@ fn admit(
     let keep = libm::expf(-d / FORGET_M);
     *weight = *weight * keep + w;
     *weight_sq = *weight_sq * keep * keep + w * w;
-    let frames = *weight * *weight / *weight_sq;
-    let spread = if frames < WARM_FRAMES {
+    Some((w / *weight, warm_spread(spread_rad, *weight, *weight_sq)))
+}
+
+/// The spread an estimate of `weight` and `weight_sq` is taken at: over its first
+/// [`WARM_FRAMES`] (their effective number, `weight^2 / weight_sq`) at least
+/// [`START_SPREAD_RAD`], since a few frames' own spread says little of the next one's (a single
+/// frame's is none). Both the clipping and the standard error take it, so that an estimate
+/// that has just begun (the road's pitch on the first frame that sees nothing but road) does
+/// not weigh like hundreds of frames against another.
+fn warm_spread(spread_rad: f32, weight: f32, weight_sq: f32) -> f32 {
+    if weight * weight < WARM_FRAMES * weight_sq {
         spread_rad.max(START_SPREAD_RAD)
     } else {
         spread_rad
-    };
-    Some((w / *weight, spread))
+    }
 }
 
 /// The spread after a frame of `share` whose clipped residual is `r`: it follows the clipped
@@ -460,10 +476,11 @@ impl Calibration {
     /// Bytes of [`to_bytes`](Self::to_bytes): the magic, thirty-one `f32`, a checksum.
     pub const BYTES: usize = 132;
 
-    /// The first four bytes of a saved calibration (`rvc5`; the older `rvc1` to `rvc4`,
-    /// without the road's pitch and roll or the distance ahead of the axle, are refused: the
-    /// odometer learns again within minutes).
-    pub const MAGIC: [u8; 4] = *b"rvc5";
+    /// The first four bytes of a saved calibration (`rvc6`; the older `rvc1` to `rvc4`,
+    /// without the road's pitch and roll or the distance ahead of the axle, and `rvc5`, whose
+    /// yaw fields held the yaw where these hold the camera's turn, are refused: the odometer
+    /// learns again within minutes).
+    pub const MAGIC: [u8; 4] = *b"rvc6";
 
     /// Largest correction of any angle, radians (10 deg): past it the mount file is wrong,
     /// not worn.
@@ -1010,6 +1027,39 @@ mod tests {
             .applied_pitch_rad(),
             0.0
         );
+    }
+
+    #[test]
+    fn an_estimate_just_begun_does_not_outweigh_one_of_many_frames() {
+        // 300 frames of the image's pitch at +1 deg, +-0.5 deg a frame; then the first frame
+        // that sees nothing but road reads -2 deg. Its own spread is none, but one frame tells
+        // nothing of the next one's: the pitch moves by its share of the frames, not by half.
+        let mut c = Calibration::NONE;
+        let mut next = crate::test_rng::uniform(11u32);
+        for _ in 0..300 {
+            c.measure_pitch(-deg(1.0) + deg(1.0) * (next() - 0.5), 0.8, 0.0);
+        }
+        let before = c.pitch().unwrap();
+        let pitch_only = (true, false, false);
+        let level = (Angles::default(), 0.0);
+        c.measure_road(&road(deg(-2.0), 0.0), (0.8, 0.0), level, pitch_only);
+        let first = c.pitch_road.estimate().unwrap();
+        assert!(first.sd_rad >= START_SPREAD_RAD, "{first:?}");
+        let after = c.pitch().unwrap();
+        assert!(
+            (after.rad - before.rad).abs() < deg(0.01),
+            "{before:?} {after:?}"
+        );
+        // Past its first frames, the road's own spread takes over: under what the assumed
+        // spread would give its frames.
+        let frames = 2 * WARM_FRAMES as usize;
+        for _ in 0..frames {
+            let pitch = deg(-2.0) + deg(0.2) * (next() - 0.5);
+            c.measure_road(&road(pitch, 0.0), (0.8, 0.0), level, pitch_only);
+        }
+        let warm = c.pitch_road.estimate().unwrap();
+        let floor = START_SPREAD_RAD / libm::sqrtf(frames as f32 + 1.0);
+        assert!(warm.sd_rad < 0.8 * floor, "{warm:?} {floor}");
     }
 
     #[test]
