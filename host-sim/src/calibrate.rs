@@ -138,7 +138,7 @@ fn cost(
             let Ok(config) = config_for(seq, &moved, method) else {
                 return Ok(f64::INFINITY);
             };
-            let report = evaluate(gt, &frames.poses(config)?)?;
+            let report = evaluate(gt, &frames.poses(config)?.0)?;
             let figures = match metric {
                 Metric::Short => (report.short_t_err_pct, report.short_r_err_deg_per_m),
                 Metric::Kitti => (report.t_err_pct, report.r_err_deg_per_m),

@@ -70,17 +70,18 @@ impl Preloaded {
     }
 
     /// The camera-0 trajectory of a fresh odometer with `config` over the frames (KITTI poses
-    /// through the mount as learned by the last frame, smoothed as the configuration says).
-    pub fn poses(&self, config: ValidConfig) -> Result<Vec<Pose>> {
+    /// through the mount as learned by the last frame, smoothed as the configuration says),
+    /// and the mount it learned.
+    pub fn poses(&self, config: ValidConfig) -> Result<(Vec<Pose>, LearnedMount)> {
         let mut trajectory = Trajectory::new(config, self.len())?;
         let ran = run_frames(self, config, BadFrames::Stop, |_, e, t, _| {
             trajectory.push(e, t);
             Ok(())
         })?;
-        let learned = ran.config;
+        let (config, learned) = (ran.config, ran.learned_mount());
         ran.complete()?;
         while trajectory.flush().is_some() {}
-        Ok(trajectory.into_poses(&learned))
+        Ok((trajectory.into_poses(&config), learned))
     }
 }
 
@@ -150,12 +151,37 @@ impl Skipped {
     }
 }
 
+/// The corrections to the mount file's mount that a run learned, each with its standard error;
+/// `None` where nothing measured it (the setting off, or the drive never showed it).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LearnedMount {
+    /// Yaw, radians (counter-clockwise seen from above).
+    pub yaw: Option<AngleEstimate>,
+    /// Pitch, radians (nose up).
+    pub pitch: Option<AngleEstimate>,
+    /// Roll, radians (left side up).
+    pub roll: Option<AngleEstimate>,
+    /// The camera's distance ahead of the rear axle and its standard error, metres.
+    pub x_m: Option<(f32, f32)>,
+}
+
 impl Ran {
     /// The learned correction of the mount file's yaw after the last frame run, as
     /// [`Odometer::learned_yaw`] gave it then.
     pub fn learned_yaw(&self) -> Option<AngleEstimate> {
         let yaw_per_roll = self.config.config().mount.yaw_per_roll();
         self.calibration.yaw(yaw_per_roll)
+    }
+
+    /// Every correction learned after the last frame run.
+    pub fn learned_mount(&self) -> LearnedMount {
+        let c = &self.calibration;
+        LearnedMount {
+            yaw: self.learned_yaw(),
+            pitch: c.pitch(),
+            roll: c.roll(),
+            x_m: c.x_ahead(),
+        }
     }
 
     /// The timing of a run that went to the end; an error naming the frame otherwise.

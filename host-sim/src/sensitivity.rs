@@ -19,7 +19,7 @@
 use crate::eval::{evaluate, heading_rad};
 use crate::kitti::{Pose, Sequence, read_poses};
 use crate::mount::MountFile;
-use crate::run::{Preloaded, config_for, mount_for};
+use crate::run::{LearnedMount, Preloaded, config_for, mount_for};
 use crate::scenario::{Crown, Kerb, Scenario};
 use crate::simulate::{poses_path, sequence_dir, simulate};
 use anyhow::Result;
@@ -162,6 +162,9 @@ pub struct Row {
     pub paper_translation_pct: Option<f64>,
     /// The paper's rotation error, deg/m, where it gives one.
     pub paper_rotation_deg_per_m: Option<f64>,
+    /// The corrections to the case's mount file learned over the course: on a mount case the
+    /// opposite of its change, on a road case (whose mount file is exact) what the road taught.
+    pub learned: LearnedMount,
 }
 
 /// Planar camera motion of a KITTI trajectory: (path length, sum of heading changes in
@@ -232,7 +235,7 @@ pub fn sensitivity(
             }
             for method in Method::ALL {
                 progress(&format!("{} ({})", case.name, method.name()));
-                let est = frames.poses(config_for(&seq, &mount, Some(method))?)?;
+                let (est, learned) = frames.poses(config_for(&seq, &mount, Some(method))?)?;
                 let (t, r) = errors(&truth, &est);
                 rows.push(Row {
                     case: case.name,
@@ -242,6 +245,7 @@ pub fn sensitivity(
                     end_drift_pct: evaluate(&truth, &est)?.end_drift_pct,
                     paper_translation_pct: case.paper.0,
                     paper_rotation_deg_per_m: case.paper.1,
+                    learned,
                 });
             }
         }
@@ -274,6 +278,37 @@ pub fn format_rows(rows: &[Row]) -> String {
     s
 }
 
+/// The mount the default method learned in each case, as a Markdown table: the corrections
+/// to the case's mount file, each with its standard error ("-" where nothing measured it).
+pub fn format_learned(rows: &[Row]) -> String {
+    let deg = |e: Option<roadvo::AngleEstimate>| {
+        e.map_or("-".to_string(), |e| {
+            format!(
+                "{:+.2} (+-{:.2})",
+                e.rad.to_degrees(),
+                e.sd_rad.to_degrees()
+            )
+        })
+    };
+    let mut s = String::from(
+        "| case | yaw deg | pitch deg | roll deg | distance ahead of the axle m |\n|---|---|---|---|---|\n",
+    );
+    for r in rows.iter().filter(|r| r.method == Method::PitchVote) {
+        let l = &r.learned;
+        let x = l
+            .x_m
+            .map_or("-".to_string(), |(m, sd)| format!("{m:+.3} (+-{sd:.3})"));
+        s += &format!(
+            "| {} | {} | {} | {} | {x} |\n",
+            r.case,
+            deg(l.yaw),
+            deg(l.pitch),
+            deg(l.roll)
+        );
+    }
+    s
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -291,6 +326,38 @@ mod tests {
         assert!((t - 10.0).abs() < 0.1, "{t}");
         assert!((r - 0.01).abs() < 1e-6, "{r}");
         assert_eq!(errors(&truth, &truth), (0.0, 0.0));
+    }
+
+    #[test]
+    fn the_learned_mount_table_has_the_pitch_vote_s_rows_and_a_dash_where_nothing_was_measured() {
+        let row = |case, method, roll_deg: Option<f32>| Row {
+            case,
+            method,
+            translation_pct: 0.0,
+            rotation_deg_per_m: 0.0,
+            end_drift_pct: 0.0,
+            paper_translation_pct: None,
+            paper_rotation_deg_per_m: None,
+            learned: LearnedMount {
+                roll: roll_deg.map(|d| roadvo::AngleEstimate {
+                    rad: d.to_radians(),
+                    sd_rad: 0.05f32.to_radians(),
+                }),
+                x_m: Some((-0.1, 0.02)),
+                ..LearnedMount::default()
+            },
+        };
+        let rows = [
+            row("roll +1 deg", Method::PitchVote, Some(-0.98)),
+            row("roll +1 deg", Method::Paper, None),
+        ];
+        let table = format_learned(&rows);
+        let lines: Vec<&str> = table.lines().collect();
+        assert_eq!(lines.len(), 3, "{table}");
+        assert_eq!(
+            lines[2],
+            "| roll +1 deg | - | - | -0.98 (+-0.05) | -0.100 (+-0.020) |"
+        );
     }
 
     #[test]

@@ -88,22 +88,22 @@ impl RunArgs {
         print_summary(&output, &self.out);
         if let Some(p) = &self.learned_mount {
             let c = &output.ran.calibration;
-            let yaw = output.ran.learned_yaw();
+            let l = output.ran.learned_mount();
             let mut learned = mount;
             let rad = |e: Option<AngleEstimate>| e.map_or(0.0, |e| e.rad);
-            learned.mount.yaw_rad += rad(yaw);
-            learned.mount.pitch_rad += rad(c.pitch());
-            learned.mount.roll_rad += rad(c.roll());
-            let x_m = c.x_ahead().map_or(0.0, |(m, _)| m);
+            learned.mount.yaw_rad += rad(l.yaw);
+            learned.mount.pitch_rad += rad(l.pitch);
+            learned.mount.roll_rad += rad(l.roll);
+            let x_m = l.x_m.map_or(0.0, |(m, _)| m);
             learned.mount.x_m += x_m;
             let note = format!(
                 "# Learned by `roadvo run` over {:.0} m of {}: yaw {:+.3} deg, pitch {:+.3} \
                  deg, roll {:+.3} deg, x {:+.3} m from the mount file's.\n",
                 c.distance_m,
                 self.seq.seq_dir.display(),
-                rad(yaw).to_degrees(),
-                rad(c.pitch()).to_degrees(),
-                rad(c.roll()).to_degrees(),
+                rad(l.yaw).to_degrees(),
+                rad(l.pitch).to_degrees(),
+                rad(l.roll).to_degrees(),
                 x_m
             );
             // [camera] where the sequence has no calib.txt to give it (a video, a folder of
@@ -206,18 +206,17 @@ fn print_summary(run: &RunOutput, out: &Path) {
     // The yaw with the camera's turn about the vertical each kind of evidence shows (the yaw
     // and the roll's share of it): where the two disagree, the road's plane (a rolled mount, a
     // banked road) is what the ground's step leans on.
-    let yaw = run.ran.learned_yaw().map(|e| {
+    let l = run.ran.learned_mount();
+    let yaw = l.yaw.map(|e| {
         let sources: Vec<String> = [("ground", &c.yaw_ground), ("image", &c.yaw_image)]
             .into_iter()
             .filter_map(|(source, l)| l.estimate().map(|e| format!("{source} {}", deg(e))))
             .collect();
         format!("yaw {} [turn: {}]", deg(e), sources.join("; "))
     });
-    let pitch = c.pitch().map(|e| format!("pitch {}", deg(e)));
-    let roll = c.roll().map(|e| format!("roll {}", deg(e)));
-    let x = c
-        .x_ahead()
-        .map(|(m, sd)| format!("x {m:+.3} m (+-{sd:.3})"));
+    let pitch = l.pitch.map(|e| format!("pitch {}", deg(e)));
+    let roll = l.roll.map(|e| format!("roll {}", deg(e)));
+    let x = l.x_m.map(|(m, sd)| format!("x {m:+.3} m (+-{sd:.3})"));
     let learned: Vec<String> = [yaw, pitch, roll, x].into_iter().flatten().collect();
     if !learned.is_empty() {
         println!(

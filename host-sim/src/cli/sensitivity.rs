@@ -2,7 +2,7 @@
 
 use anyhow::Result;
 use indicatif::{ProgressBar, ProgressStyle};
-use roadvo_sim::sensitivity::{format_rows, sensitivity};
+use roadvo_sim::sensitivity::{format_learned, format_rows, sensitivity};
 use std::path::PathBuf;
 
 /// The paper's sensitivity study on the s-course.
@@ -48,6 +48,12 @@ impl SensitivityArgs {
         }
         println!();
         print!("{}", format_rows(&rows));
+        println!(
+            "\nThe mount the pitch vote learned (corrections to the case's mount file, with their \
+             standard errors; a mount case's should undo its change, a road case's mount file is \
+             exact):\n"
+        );
+        print!("{}", format_learned(&rows));
         Ok(())
     }
 }
