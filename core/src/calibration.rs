@@ -1033,7 +1033,8 @@ mod tests {
     fn an_estimate_just_begun_does_not_outweigh_one_of_many_frames() {
         // 300 frames of the image's pitch at +1 deg, +-0.5 deg a frame; then the first frame
         // that sees nothing but road reads -2 deg. Its own spread is none, but one frame tells
-        // nothing of the next one's: the pitch moves by its share of the frames, not by half.
+        // nothing of the next one's: the pitch moves by its share of the frames (taken at its
+        // own spread of 0.1 deg, it moved by a tenth of the gap, 0.3 deg).
         let mut c = Calibration::NONE;
         let mut next = crate::test_rng::uniform(11u32);
         for _ in 0..300 {
@@ -1050,8 +1051,8 @@ mod tests {
             (after.rad - before.rad).abs() < deg(0.01),
             "{before:?} {after:?}"
         );
-        // Past its first frames, the road's own spread takes over: under what the assumed
-        // spread would give its frames.
+        // Past its first frames the floor is gone: the standard error falls under what the
+        // assumed spread would give its frames (the running spread still carries some of it).
         let frames = 2 * WARM_FRAMES as usize;
         for _ in 0..frames {
             let pitch = deg(-2.0) + deg(0.2) * (next() - 0.5);
@@ -1194,6 +1195,14 @@ mod tests {
         other[0] = b'x';
         assert_eq!(
             Calibration::from_bytes(&other),
+            Err(CalibrationError::WrongMagic)
+        );
+        // The previous version's bytes, laid out alike but with the yaw where these hold the
+        // camera's turn, are refused rather than read as the turn.
+        let mut previous = bytes;
+        previous[..4].copy_from_slice(b"rvc5");
+        assert_eq!(
+            Calibration::from_bytes(&previous),
             Err(CalibrationError::WrongMagic)
         );
         for i in 4..Calibration::BYTES {

@@ -161,8 +161,22 @@ pub struct LearnedMount {
     pub pitch: Option<AngleEstimate>,
     /// Roll, radians (left side up).
     pub roll: Option<AngleEstimate>,
-    /// The camera's distance ahead of the rear axle and its standard error, metres.
+    /// The correction to the camera's distance ahead of the rear axle (added to the mount
+    /// file's) and its standard error, metres.
     pub x_m: Option<(f32, f32)>,
+}
+
+impl LearnedMount {
+    /// The corrections `c` holds, with the yaw as the odometer reads it through its mount
+    /// ([`Odometer::learned_yaw`]).
+    pub fn of(c: &Calibration, yaw: Option<AngleEstimate>) -> Self {
+        Self {
+            yaw,
+            pitch: c.pitch(),
+            roll: c.roll(),
+            x_m: c.x_ahead(),
+        }
+    }
 }
 
 impl Ran {
@@ -175,13 +189,7 @@ impl Ran {
 
     /// Every correction learned after the last frame run.
     pub fn learned_mount(&self) -> LearnedMount {
-        let c = &self.calibration;
-        LearnedMount {
-            yaw: self.learned_yaw(),
-            pitch: c.pitch(),
-            roll: c.roll(),
-            x_m: c.x_ahead(),
-        }
+        LearnedMount::of(&self.calibration, self.learned_yaw())
     }
 
     /// The timing of a run that went to the end; an error naming the frame otherwise.
@@ -486,7 +494,8 @@ impl QualityLine {
     /// Frame `frame`'s line, taken at `time_s`, for its estimate `e` and the mount `odo`
     /// learned after it.
     pub fn of(frame: usize, time_s: f64, e: &Estimate, odo: &Odometer) -> Self {
-        let (q, c) = (&e.quality, odo.calibration());
+        let q = &e.quality;
+        let l = LearnedMount::of(odo.calibration(), odo.learned_yaw());
         Self {
             frame,
             time_s,
@@ -510,11 +519,11 @@ impl QualityLine {
             image_matches: q.image_matches,
             image_inliers: q.image_inliers,
             image_heading: q.image_heading,
-            learned_yaw_rad: odo.learned_yaw().map_or(0.0, |e| e.rad),
-            learned_pitch_rad: c.pitch().map_or(0.0, |e| e.rad),
-            learned_roll_rad: c.roll().map_or(0.0, |e| e.rad),
-            learned_x_m: c.x_ahead().map_or(0.0, |(m, _)| m),
-            learned_road_m: c.distance_m,
+            learned_yaw_rad: l.yaw.map_or(0.0, |e| e.rad),
+            learned_pitch_rad: l.pitch.map_or(0.0, |e| e.rad),
+            learned_roll_rad: l.roll.map_or(0.0, |e| e.rad),
+            learned_x_m: l.x_m.map_or(0.0, |(m, _)| m),
+            learned_road_m: odo.calibration().distance_m,
         }
     }
 }

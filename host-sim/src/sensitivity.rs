@@ -11,7 +11,8 @@
 //!   per-frame heading changes against the true sum) over the true path length, signed;
 //!
 //! and the end-point error (the distance between the final positions over the path length,
-//! percent), where an error that bends the path without lengthening it shows.
+//! percent), where an error that bends the path without lengthening it shows; and, for the
+//! pitch vote, the mount it learned in each case ([`format_learned`]).
 //!
 //! Both are measured on the camera's planar motion (KITTI poses through the mount), so they
 //! need no alignment of the trajectories.
@@ -162,8 +163,9 @@ pub struct Row {
     pub paper_translation_pct: Option<f64>,
     /// The paper's rotation error, deg/m, where it gives one.
     pub paper_rotation_deg_per_m: Option<f64>,
-    /// The corrections to the case's mount file learned over the course: on a mount case the
-    /// opposite of its change, on a road case (whose mount file is exact) what the road taught.
+    /// The corrections to the case's mount file learned over the course: on a roll, pitch, yaw
+    /// or longitudinal case its change reversed (the lateral and vertical offsets are not
+    /// learned), on a road case (whose mount file is exact) what the road taught.
     pub learned: LearnedMount,
 }
 

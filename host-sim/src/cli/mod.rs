@@ -62,7 +62,8 @@ pub enum Command {
     /// Time the odometry alone on a sequence: frames preloaded, one thread, both methods.
     Bench(bench::BenchArgs),
     /// The paper's sensitivity study on the s-course: +1 deg of roll, pitch, yaw and +10 cm of
-    /// each offset in the mount file, a kerb and crowned roads; both methods beside the paper.
+    /// each offset in the mount file, a kerb and crowned roads; both methods beside the paper,
+    /// and the mount the pitch vote learned in each case.
     Sensitivity(sensitivity::SensitivityArgs),
     /// Render the paper's s-course, run both methods, evaluate, and plot: the default demo.
     Demo(demo::DemoArgs),

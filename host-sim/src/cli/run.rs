@@ -210,7 +210,7 @@ fn print_summary(run: &RunOutput, out: &Path) {
     let yaw = l.yaw.map(|e| {
         let sources: Vec<String> = [("ground", &c.yaw_ground), ("image", &c.yaw_image)]
             .into_iter()
-            .filter_map(|(source, l)| l.estimate().map(|e| format!("{source} {}", deg(e))))
+            .filter_map(|(source, s)| s.estimate().map(|e| format!("{source} {}", deg(e))))
             .collect();
         format!("yaw {} [turn: {}]", deg(e), sources.join("; "))
     });

@@ -50,8 +50,9 @@ impl SensitivityArgs {
         print!("{}", format_rows(&rows));
         println!(
             "\nThe mount the pitch vote learned (corrections to the case's mount file, with their \
-             standard errors; a mount case's should undo its change, a road case's mount file is \
-             exact):\n"
+             standard errors; a roll, pitch, yaw or longitudinal case's should reverse its \
+             change, the lateral and vertical offsets are not learned, and a road case's mount \
+             file is exact):\n"
         );
         print!("{}", format_learned(&rows));
         Ok(())
