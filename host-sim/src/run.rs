@@ -78,7 +78,7 @@ impl Preloaded {
             trajectory.push(e, t);
             Ok(())
         })?;
-        let (config, learned) = (ran.config, ran.learned_mount());
+        let (config, learned) = (ran.config, ran.learned);
         ran.complete()?;
         while trajectory.flush().is_some() {}
         Ok((trajectory.into_poses(&config), learned))
@@ -139,6 +139,9 @@ pub struct Ran {
     pub stopped: Option<Skipped>,
     /// The mount the odometer learned, after the last frame run.
     pub calibration: Calibration,
+    /// The corrections to the mount file read from it then, as the odometer gave them
+    /// ([`LearnedMount::of`]).
+    pub learned: LearnedMount,
     /// The configuration in use after the last frame run: the one given, its mount turned by
     /// the calibration.
     pub config: ValidConfig,
@@ -167,11 +170,12 @@ pub struct LearnedMount {
 }
 
 impl LearnedMount {
-    /// The corrections `c` holds, with the yaw as the odometer reads it through its mount
+    /// The corrections `odo` has learned, its yaw read through the mount in use
     /// ([`Odometer::learned_yaw`]).
-    pub fn of(c: &Calibration, yaw: Option<AngleEstimate>) -> Self {
+    pub fn of(odo: &Odometer) -> Self {
+        let c = odo.calibration();
         Self {
-            yaw,
+            yaw: odo.learned_yaw(),
             pitch: c.pitch(),
             roll: c.roll(),
             x_m: c.x_ahead(),
@@ -180,18 +184,6 @@ impl LearnedMount {
 }
 
 impl Ran {
-    /// The learned correction of the mount file's yaw after the last frame run, as
-    /// [`Odometer::learned_yaw`] gave it then.
-    pub fn learned_yaw(&self) -> Option<AngleEstimate> {
-        let yaw_per_roll = self.config.config().mount.yaw_per_roll();
-        self.calibration.yaw(yaw_per_roll)
-    }
-
-    /// Every correction learned after the last frame run.
-    pub fn learned_mount(&self) -> LearnedMount {
-        LearnedMount::of(&self.calibration, self.learned_yaw())
-    }
-
     /// The timing of a run that went to the end; an error naming the frame otherwise.
     pub fn complete(self) -> Result<Timing> {
         match self.stopped {
@@ -231,6 +223,7 @@ pub fn run_frames_inspected(
         skipped: Vec::new(),
         stopped: None,
         calibration: Calibration::NONE,
+        learned: LearnedMount::default(),
         config,
     };
     for i in 0..source.len() {
@@ -265,6 +258,7 @@ pub fn run_frames_inspected(
         }
     }
     ran.calibration = *odo.calibration();
+    ran.learned = LearnedMount::of(&odo);
     ran.config = *odo.config();
     Ok(ran)
 }
@@ -495,7 +489,7 @@ impl QualityLine {
     /// learned after it.
     pub fn of(frame: usize, time_s: f64, e: &Estimate, odo: &Odometer) -> Self {
         let q = &e.quality;
-        let l = LearnedMount::of(odo.calibration(), odo.learned_yaw());
+        let l = LearnedMount::of(odo);
         Self {
             frame,
             time_s,

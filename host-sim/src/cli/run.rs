@@ -88,7 +88,7 @@ impl RunArgs {
         print_summary(&output, &self.out);
         if let Some(p) = &self.learned_mount {
             let c = &output.ran.calibration;
-            let l = output.ran.learned_mount();
+            let l = output.ran.learned;
             let mut learned = mount;
             let rad = |e: Option<AngleEstimate>| e.map_or(0.0, |e| e.rad);
             learned.mount.yaw_rad += rad(l.yaw);
@@ -206,7 +206,7 @@ fn print_summary(run: &RunOutput, out: &Path) {
     // The yaw with the camera's turn about the vertical each kind of evidence shows (the yaw
     // and the roll's share of it): where the two disagree, the road's plane (a rolled mount, a
     // banked road) is what the ground's step leans on.
-    let l = run.ran.learned_mount();
+    let l = run.ran.learned;
     let yaw = l.yaw.map(|e| {
         let sources: Vec<String> = [("ground", &c.yaw_ground), ("image", &c.yaw_image)]
             .into_iter()
