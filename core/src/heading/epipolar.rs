@@ -233,20 +233,6 @@ impl RoadMotion<'_> {
         let x2 = m.transpose() * (self.turn * (point - self.travel) - c);
         (x2.z > 0.0).then(|| x2 / x2.z)
     }
-
-    /// The multiple of this motion's travel that takes ray `x1`'s road point to where ray `x2`
-    /// sees it. After the turn the point is seen along `a - d b` (`a` its place, `b` the
-    /// travel's), which is `x2`'s direction where `(a - d b) x x2 = 0`: `d` by least squares
-    /// over the cross product's rows. `None` where `x1` meets no road or the travel does not
-    /// move the point across `x2`.
-    pub fn travel_to(&self, x1: &Vector3<f32>, x2: &Vector3<f32>) -> Option<f32> {
-        let Model { m, c } = self.model;
-        let point = self.model.meet_road(&self.normal, x1)?;
-        let a = (m.transpose() * (self.turn * point - c)).cross(x2);
-        let b = (m.transpose() * (self.turn * self.travel)).cross(x2);
-        let bb = b.dot(&b);
-        (bb > 0.0).then(|| a.dot(&b) / bb)
-    }
 }
 
 /// A motion's prediction of where the first frame's rays are seen in the second
