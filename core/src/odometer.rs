@@ -376,9 +376,8 @@ impl<
         quality.features_comoving =
             self.estimator
                 .set_aside(&self.config, &self.corners, prediction);
-        // 5. Heading from the whole image (pitch vote with `image_heading`). On the first frame
-        // that moves no motion predicts where its features went: there the image waits for the
-        // ground's vote (step 8) and takes its motion as the prediction (step 9).
+        // 5. Heading from the whole image (pitch vote with `image_heading`), and on the first
+        // frame that moves, the motion that predicts the ground's vote (below).
         let ratio = interval.map(|dt| match self.state.last_interval {
             Duration::ZERO => 1.0,
             last => dt.ratio(last),
@@ -393,12 +392,21 @@ impl<
             interval_ratio,
             pivot_m,
         });
-        let image_waits = prior.is_some() && prediction.is_none();
-        let mut image = if image_waits {
-            None
-        } else {
-            self.estimator.image_heading(frame, &self.config, prior)
-        };
+        let image = self.estimator.image_heading(frame, &self.config, prior);
+        // On the first frame that moves no motion predicts where the features went: the whole
+        // image's consensus (its start-up search) tells the heading, and its pairs on the road
+        // each tell the distance; their median and the heading predict the ground's vote, whose
+        // start-up window alone could lock onto a standstill on a road of little texture.
+        let told = (prior.is_some() && prediction.is_none())
+            .then(|| {
+                let h = image.and_then(|i| i.heading_change_rad)?;
+                let (d, _) = self.estimator.road_travel(&self.config, pivot_m)?;
+                Some(Motion {
+                    heading_change_rad: h,
+                    distance_m: d,
+                })
+            })
+            .flatten();
         let Some(interval) = interval else {
             // 6. Start-up: the first frame's corners become tracks.
             quality.startup = true;
@@ -420,7 +428,7 @@ impl<
             tracks: self.tracks.as_slice(),
             corners: &self.corners,
             prior: Prior {
-                prediction,
+                prediction: prediction.or(told),
                 steady_speed_m_s: self.state.steady_speed_m_s,
                 fallbacks: self.state.fallbacks,
                 image_heading_rad: image.and_then(|i| i.heading_change_rad),
@@ -445,10 +453,10 @@ impl<
         // few features agree (paper §5). The whole image's heading, where it has one, stands.
         let trusted = voted.motion.is_some()
             && quality.inlier_ratio >= self.config.settings().min_inlier_ratio;
-        let ground = match (voted.motion, prediction) {
+        let ground = match (voted.motion, inputs.prior.prediction) {
             (Some(m), Some(p)) if trusted => voted.weigh(m, p),
             (Some(m), None) if trusted => m,
-            _ => prediction.unwrap_or(Motion::ZERO),
+            _ => inputs.prior.prediction.unwrap_or(Motion::ZERO),
         };
         // Where the image saw nothing but road, the ground's own heading weighs in.
         let image_heading_rad = image.and_then(|i| i.heading_change_rad);
@@ -496,19 +504,6 @@ impl<
             cfg.in_window(g.moved_ahead(pivot_m))
         });
         quality.tracks_refused = self.tracks.spawn_all(voted.observations.untaken());
-        // 5, late: the first frame that moves takes the ground's motion as the image's
-        // prediction (the tracks above were carried at the ground's heading, this frame only).
-        if image_waits {
-            let prior = prior.map(|p| ImagePrior {
-                prediction: trusted.then_some(ground),
-                ..p
-            });
-            image = self.estimator.image_heading(frame, &self.config, prior);
-            if let Some(h) = image.and_then(|i| i.heading_change_rad) {
-                motion.heading_change_rad = h;
-                quality.fallback = false;
-            }
-        }
         quality.take_image(image);
         // 11. The road's plane, fitted to the whole image's pairs on it and the ground window's
         // found again by patch: it measures the distance too (its homography's travel over the

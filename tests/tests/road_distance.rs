@@ -19,7 +19,7 @@ const START: usize = 20;
 /// kitti-like with suspension (seed 1), [`FRAMES`] of it rendered into `dir`: the sequence,
 /// its truth and its mount file (the true mount).
 fn render(dir: &std::path::Path) -> (Sequence, Vec<[f64; 12]>, MountFile) {
-    common::render(dir, "kitti-like", &["suspension"], FRAMES)
+    common::render(dir, "kitti-like", &["suspension"], FRAMES, 1)
 }
 
 /// The estimated path's length over the truth's.

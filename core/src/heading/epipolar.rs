@@ -233,6 +233,34 @@ impl RoadMotion<'_> {
         let x2 = m.transpose() * (self.turn * (point - self.travel) - c);
         (x2.z > 0.0).then(|| x2 / x2.z)
     }
+
+    /// The multiple of this motion's travel that takes ray `x1`'s road point to where ray `x2`
+    /// sees it, and how surely: the square of how far one unit of it moves the point across
+    /// the image (normalised coordinates), the weight a pixel's error leaves it. After the turn
+    /// the point is seen along `a - d b` (`a` its place, `b` the travel's), which is `x2`'s
+    /// direction where `(a - d b) x x2 = 0`: `d` by least squares over the cross product's
+    /// rows. `None` where `x1` meets no road, the travel does not move the point across `x2`,
+    /// or the point would be behind the second camera.
+    pub fn travel_to(&self, x1: &Vector3<f32>, x2: &Vector3<f32>) -> Option<(f32, f32)> {
+        let Model { m, c } = self.model;
+        let point = self.model.meet_road(&self.normal, x1)?;
+        let a = m.transpose() * (self.turn * point - c);
+        let b = m.transpose() * (self.turn * self.travel);
+        let (ax, bx) = (a.cross(x2), b.cross(x2));
+        let bb = bx.dot(&bx);
+        if bb <= 0.0 {
+            return None;
+        }
+        let d = ax.dot(&bx) / bb;
+        let z = a.z - d * b.z;
+        if z <= 0.0 {
+            return None;
+        }
+        // The derivative of the point's projection (a - d b) / z by d, at x2.
+        let sx = (b.z * x2.x - b.x) / z;
+        let sy = (b.z * x2.y - b.y) / z;
+        Some((d, sx * sx + sy * sy))
+    }
 }
 
 /// A motion's prediction of where the first frame's rays are seen in the second

@@ -264,7 +264,10 @@ impl<const K: usize> ImageHeading<K> {
                 out.inliers = fit.inliers;
                 out.heading_change_rad =
                     (fit.heading_sd_rad <= s.image_max_heading_sd_rad).then_some(fit.params.alpha);
-                out.distance_m = distance_m.filter(|_| out.heading_change_rad.is_some());
+                // Found about the prediction's distance: with none (the start-up search's
+                // least distance) it is no measurement.
+                out.distance_m =
+                    distance_m.filter(|_| out.heading_change_rad.is_some() && prediction.is_some());
                 out.pitch_change_rad = fit.params.pitch;
                 out.rms_px = fit.rms_px;
                 out.heading_sd_rad = fit.heading_sd_rad;
@@ -324,13 +327,35 @@ impl<const K: usize> ImageHeading<K> {
                 .chain(ground)
         };
         let scales = (cfg.config().camera.fx_px, scale_px, s.image_inlier_px);
+        let on_road = Self::on_road(cfg, &model);
+        plane::fit(&model, pairs, on_road, start, motion.distance_m, scales)
+    }
+
+    /// The distance travelled over the last frame that this frame's consensus's inliers on
+    /// the road tell, each alone under the consensus's motion ([`plane::median_travel`]): their
+    /// median, metres, and how many told one. Matched by appearance, it rests on neither a
+    /// prediction nor the ground vote. `None` without a consensus this frame.
+    pub fn road_travel(&self, cfg: &ValidConfig, pivot_m: f32) -> Option<(f32, usize)> {
+        let (fitted, _) = self.fitted?;
+        let model = self.model.from_pivot(pivot_m);
+        let on_road = Self::on_road(cfg, &model);
+        let inliers = self.pairs.iter().zip(&self.inlier).filter(|(_, k)| **k);
+        let on = inliers
+            .map(|(c, _)| c)
+            .filter(|c| plane::on_the_road(&model, on_road, c));
+        plane::median_travel(&model, &fitted, on)
+    }
+
+    /// Where the road's plane is looked for: the ground window's lane, [`ROAD_REACH`] times as
+    /// far ahead and as wide (vehicle frame, from where `model`'s arc is drawn).
+    fn on_road(cfg: &ValidConfig, model: &Model) -> impl Fn(Vector3<f32>) -> bool + Copy {
+        let s = cfg.settings();
         let (arm, far) = (model.swing_arm_m(), ROAD_REACH * s.window_far_m);
         let half = ROAD_REACH * s.window_half_width_m;
-        let on_road = |p: Vector3<f32>| {
+        move |p: Vector3<f32>| {
             let ahead = p.x - arm;
             ahead > 0.0 && ahead < far && p.y.abs() < half
-        };
-        plane::fit(&model, pairs, on_road, start, motion.distance_m, scales)
+        }
     }
 
     /// How many of the consensus's inliers the last frame saw above the horizon.
@@ -400,11 +425,10 @@ impl<const K: usize> ImageHeading<K> {
         (p.u_px, p.v_px)
     }
 
-    /// With no motion to predict from (the first frame that moves, where the ground's vote
-    /// was not trusted), the motion the features are looked for at: headings a reach apart
-    /// across the start-up window and distances across the start-up one (standing, half way,
-    /// its end), each paired and voted on, nearest straight and standing first; the one whose
-    /// consensus holds the most pairs. A turn of a few degrees, or a metre of travel, moves
+    /// With no motion to predict from (the first frame that moves), the motion the features
+    /// are looked for at: headings a reach apart across the start-up window and distances
+    /// across the start-up one (standing, half way, its end), each paired and voted on, nearest
+    /// straight and standing first; the one whose consensus holds the most pairs. A turn of a few degrees, or a metre of travel, moves
     /// features further than their reach, and pairs looked for at the wrong motion find no
     /// consensus.
     fn start_guess<F: Frame + ?Sized>(

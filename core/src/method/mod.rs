@@ -221,6 +221,16 @@ impl<const N: usize, const F: usize, const GRID: usize, const K: usize> Estimato
         }
     }
 
+    /// The distance travelled that this frame's whole-image consensus's pairs on the road tell
+    /// ([`crate::heading::ImageHeading::road_travel`]), metres, and how many told it; `None`
+    /// without the whole image's stage or its consensus.
+    pub fn road_travel(&self, cfg: &ValidConfig, pivot_m: f32) -> Option<(f32, usize)> {
+        match self {
+            Self::PitchVote(pv) if cfg.whole_image() => pv.image.road_travel(cfg, pivot_m),
+            _ => None,
+        }
+    }
+
     /// Starts a track at each of the first frame's corners; returns those a full pool refused.
     pub fn start_tracks<const M: usize>(
         &self,
