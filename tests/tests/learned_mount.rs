@@ -247,9 +247,9 @@ fn a_pitch_learned_in_town_kept_over_an_ignition_cycle_keeps_the_scale() {
     // pitch is learned (within the first 60 m or so). Cut at 70 m: the second part's scale
     // restored is the one piece's; a cold start has the whole error to learn again (learned
     // -0.98 deg; distance over the 30 frames after the cut 0.989 of the truth in one piece,
-    // 1.007 restored, 1.086 cold; over all 99, 1.004 in one piece, 1.006 restored). The ground vote's distance
-    // alone: the road's plane's (`road_distance`) does not rest on the mount's pitch, and would
-    // hide most of its error from a cold start.
+    // 1.007 restored, 1.086 cold; over all 99, 1.004 in one piece, 1.006 restored). The ground
+    // vote's distance alone: the road's plane's (`road_distance`) does not rest on the mount's
+    // pitch, and would hide most of its error from a cold start.
     let dir = tempfile::tempdir().unwrap();
     let (seq, truth, mut told) = town(dir.path(), |m| m.pitch_rad += 1f32.to_radians());
     told.settings.road_distance = false;

@@ -428,9 +428,9 @@ impl<const K: usize> ImageHeading<K> {
     /// With no motion to predict from (the first frame that moves), the motion the features
     /// are looked for at: headings a reach apart across the start-up window and distances
     /// across the start-up one (standing, half way, its end), each paired and voted on, nearest
-    /// straight and standing first; the one whose consensus holds the most pairs. A turn of a few degrees, or a metre of travel, moves
-    /// features further than their reach, and pairs looked for at the wrong motion find no
-    /// consensus.
+    /// straight and standing first; the one whose consensus holds the most pairs. A turn of a
+    /// few degrees, or a metre of travel, moves features further than their reach, and pairs
+    /// looked for at the wrong motion find no consensus.
     fn start_guess<F: Frame + ?Sized>(
         &mut self,
         frame: &F,
