@@ -31,10 +31,12 @@
 //! - **Roll.** From the road's plane alone, on every frame whose pairs on the road fit one
 //!   (the direction of travel does not see a roll).
 //! - **The camera's distance ahead of the rear axle.** A camera further ahead than the mount
-//!   file says swings further sideways in a bend: the whole image's direction of travel leaves
-//!   the chord by the error times the curvature, on frames that see more than the road. It is
-//!   learned as the slope of a line against each frame's own response to a metre of it
-//!   ([`Calibration::swing`]), where the bends spread enough to tell it.
+//!   file says swings further sideways in a bend: its direction of travel leaves the chord by
+//!   the error times the curvature. The whole image's motion holds that direction on frames
+//!   that see more than the road; on frames that see nothing but road the road's plane holds
+//!   it (its homography holds the camera's travel whole), where its fit holds it as well as
+//!   the line's spread. It is learned as the slope of a line against each frame's own response
+//!   to a metre of it ([`Calibration::swing`]), where the bends spread enough to tell it.
 //!
 //! Each estimate keeps its measurements' robust running mean ([`Learned`]), weighed by the
 //! distance each frame covers (times the pairs that tell a sideways step, for the ground's) and
@@ -318,13 +320,13 @@ fn admit(
 }
 
 /// The spread an estimate of `weight` and `weight_sq` is taken at: over its first
-/// [`WARM_FRAMES`] (their effective number, `weight^2 / weight_sq`) at least
+/// [`WARM_FRAMES`] (their effective number, `weight^2 / weight_sq`; none before a frame) at least
 /// [`START_SPREAD_RAD`], since a few frames' own spread says little of the next one's (a single
 /// frame's is none). Both the clipping and the standard error take it, so that an estimate
 /// that has just begun (the road's pitch on the first frame that sees nothing but road) does
 /// not weigh like hundreds of frames against another.
 fn warm_spread(spread_rad: f32, weight: f32, weight_sq: f32) -> f32 {
-    if weight * weight < WARM_FRAMES * weight_sq {
+    if weight <= 0.0 || weight * weight < WARM_FRAMES * weight_sq {
         spread_rad.max(START_SPREAD_RAD)
     } else {
         spread_rad
@@ -411,12 +413,12 @@ pub struct Calibration {
     /// The roll the road's plane shows, left side up, against the lateral acceleration: at
     /// none, the camera is rolled that much further left side up than the mount file says.
     pub roll: LearnedLine,
-    /// The whole image's direction of travel left of the arc's chord (radians, as the mount
-    /// file's distance ahead of the axle would show it) against how far a metre of that
-    /// distance moves it (about the curvature driven, 1/m): a camera further ahead of the axle
-    /// than the model draws it swings further sideways in a bend, by the error times the turn.
-    /// The line's slope is the correction to the camera's distance ahead of the rear axle,
-    /// metres.
+    /// The direction of travel left of the arc's chord (the whole image's, or the road's
+    /// plane's on a frame that sees nothing but road; radians, as the mount file's distance
+    /// ahead of the axle would show it) against how far a metre of that distance moves it
+    /// (about the curvature driven, 1/m): a camera further ahead of the axle than the model
+    /// draws it swings further sideways in a bend, by the error times the turn. The line's
+    /// slope is the correction to the camera's distance ahead of the rear axle, metres.
     pub swing: LearnedLine,
     /// Road driven on the frames that measured, metres, all of it.
     pub distance_m: f32,
@@ -630,16 +632,24 @@ impl Calibration {
     /// Takes one frame's direction of travel over `distance_m`, `azimuth_rad` left of the arc's
     /// chord as the mount with its camera moved `applied_x_m` ahead sees it, and
     /// `swing_rad_per_m`, how far it would move right were the camera a metre further ahead
-    /// ([`crate::heading::ImageMotion::swing_rad_per_m`]).
+    /// ([`crate::heading::ImageMotion::swing_rad_per_m`], [`Road::swing_rad_per_m`]), with the
+    /// direction's standard error `sd_rad` where the frame's fit gives one (the road's plane):
+    /// a frame that holds its direction less well than the line's spread about its points is
+    /// left out (a kerb, or a second plane, in a tight bend reads the direction degrees off,
+    /// the same way bend after bend, and says so in its standard error).
     pub fn measure_x_ahead(
         &mut self,
         (azimuth_rad, swing_rad_per_m): (f32, f32),
+        sd_rad: Option<f32>,
         distance_m: f32,
         applied_x_m: f32,
     ) {
         // As the mount file's camera would show it: the applied correction's swing added back.
         let rad = azimuth_rad + applied_x_m * swing_rad_per_m;
         let load = (swing_rad_per_m, SWING_VAR);
+        if sd_rad.is_some_and(|sd| sd > self.swing.spread()) {
+            return;
+        }
         self.swing.take(rad, load, distance_m.abs(), distance_m);
     }
 
@@ -822,6 +832,8 @@ mod tests {
             roll_rad,
             azimuth_rad: 0.0,
             distance_m: 0.8,
+            swing_rad_per_m: 0.0,
+            azimuth_sd_rad: 0.001,
             pairs: 20,
             rms_px: 0.2,
         }
@@ -1139,7 +1151,7 @@ mod tests {
                 let swing = share * curvature;
                 let seen = deg(0.3) + (0.2 - applied_m) * swing + deg(0.5) * (next() - 0.5);
                 c.drive(0.8);
-                c.measure_x_ahead((seen, swing), 0.8, applied_m);
+                c.measure_x_ahead((seen, swing), None, 0.8, applied_m);
             };
         let mut straight = Calibration::NONE;
         for _ in 0..300 {
@@ -1168,6 +1180,35 @@ mod tests {
     }
 
     #[test]
+    fn road_frames_that_hold_their_direction_less_well_than_the_line_are_left_out() {
+        // The road's plane tells the camera 0.2 m further ahead, each frame to 0.1 deg, in
+        // bends both ways; frames of one bend in four read it 1 m off and say that they hold
+        // their direction to 2 deg only: they are left out, and the line is the precise
+        // frames' alone. Taken at face value they pull it past 0.3 m.
+        let mut next = crate::test_rng::uniform(9u32);
+        let bends = |k: usize| [0.0, 0.05, 0.0, -0.05][(k / 20) % 4];
+        let run = |told_sd: bool, next: &mut dyn FnMut() -> f32| {
+            let mut c = Calibration::NONE;
+            for k in 0..600 {
+                let swing = bends(k);
+                let (x, sd) = if k % 80 >= 20 && k % 80 < 40 {
+                    (1.0, deg(2.0))
+                } else {
+                    (0.2, deg(0.1))
+                };
+                let seen = x * swing + sd * (next() - 0.5);
+                c.drive(0.8);
+                c.measure_x_ahead((seen, swing), told_sd.then_some(sd), 0.8, 0.0);
+            }
+            c.x_ahead().unwrap().0
+        };
+        let gated = run(true, &mut next);
+        let ungated = run(false, &mut next);
+        assert!((gated - 0.2).abs() < 0.03, "{gated} {ungated}");
+        assert!(ungated > 0.3, "{gated} {ungated}");
+    }
+
+    #[test]
     fn saved_bytes_come_back_and_damaged_ones_are_refused() {
         let mut c = Calibration::NONE;
         for k in 0..50 {
@@ -1176,7 +1217,12 @@ mod tests {
             c.measure_yaw_image(deg(0.2) * (k % 4) as f32, 0.8, 0.0);
             c.measure_pitch(deg(0.1) * (k % 5) as f32, 0.8, 0.0);
             let turn = (0.02 * ((k % 5) as f32 - 2.0), 0.8);
-            c.measure_x_ahead((deg(0.1) * (k % 3) as f32, turn.0 / turn.1), 0.8, 0.05);
+            c.measure_x_ahead(
+                (deg(0.1) * (k % 3) as f32, turn.0 / turn.1),
+                None,
+                0.8,
+                0.05,
+            );
             let road = road(deg(-0.1) * (k % 6) as f32, deg(0.05) * (k % 7) as f32);
             c.measure_road(
                 &road,

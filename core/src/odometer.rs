@@ -512,11 +512,12 @@ impl<
         // the frame's distance is the geometric mean of the two (else the one nearer the steady
         // speed's). Step 13 learns from it.
         let more_than_road = image.filter(ImageMotion::sees_more_than_road);
-        let (road_pitch, road_yaw) = (
+        let (road_pitch, road_yaw, road_x) = (
             s.learn_pitch && more_than_road.is_none(),
             s.learn_yaw && more_than_road.is_none(),
+            s.learn_x && more_than_road.is_none(),
         );
-        let road_learns = road_pitch || road_yaw || s.learn_roll;
+        let road_learns = road_pitch || road_yaw || road_x || s.learn_roll;
         let road = (road_learns || s.road_distance)
             .then(|| {
                 self.estimator
@@ -543,14 +544,19 @@ impl<
         // 13. Calibrate: a trusted frame's step across the chord feeds the learned yaw, the whole
         // image's direction of travel on a frame that sees more than the road the learned yaw
         // and pitch and the distance ahead of the axle, the road's plane the learned roll, and
-        // on a frame that sees nothing but road the pitch and the yaw (its tilt and its
-        // direction of travel); they turn and move the mount once it has changed far enough.
+        // on a frame that sees nothing but road the pitch, the yaw and the distance ahead of the
+        // axle (its tilt and its direction of travel); they turn and move the mount once it has
+        // changed far enough.
         let step = sideways.filter(|_| trusted && s.learn_yaw);
         let road = road.filter(|_| road_learns);
         let travel = more_than_road.filter(|_| s.learn_pitch || s.learn_yaw);
         let swing = more_than_road
             .filter(|_| s.learn_x)
-            .and_then(|i| Some((i.azimuth_rad, i.swing_rad_per_m?)));
+            .and_then(|i| Some(((i.azimuth_rad, i.swing_rad_per_m?), None)))
+            .or(road.filter(|_| road_x).map(|r| {
+                let travel = (r.azimuth_rad, r.swing_rad_per_m);
+                (travel, Some(r.azimuth_sd_rad))
+            }));
         if step.is_some() || travel.is_some() || road.is_some() || swing.is_some() {
             let (d, applied) = (motion.distance_m, self.applied_rad);
             let yaw_per_roll = self.config.config().mount.yaw_per_roll();
@@ -559,8 +565,9 @@ impl<
             if let Some(step) = step {
                 self.calibration.measure_yaw(step, d, turn);
             }
-            if let Some(swing) = swing {
-                self.calibration.measure_x_ahead(swing, d, self.applied_x_m);
+            if let Some((travel, sd)) = swing {
+                self.calibration
+                    .measure_x_ahead(travel, sd, d, self.applied_x_m);
             }
             if let Some(road) = road {
                 // The lateral acceleration the body leans against: speed times turn rate.

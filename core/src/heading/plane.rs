@@ -28,6 +28,15 @@ pub struct Road {
     pub azimuth_rad: f32,
     /// The distance travelled, metres (from the pivot the motion is drawn from).
     pub distance_m: f32,
+    /// How far `azimuth_rad` would move right, radians, were the camera a metre further ahead
+    /// of the pivot than the mount says: the sine of the fitted turn over the fitted distance.
+    /// The homography holds the camera's travel whole, so the travel from the pivot takes up
+    /// all of the camera's further swing, `(Q - I)` times the metre ([`crate::calibration`]
+    /// learns the distance ahead against it).
+    pub swing_rad_per_m: f32,
+    /// The standard error of `azimuth_rad`, radians: from the fit's normal equations and its
+    /// residuals' spread.
+    pub azimuth_sd_rad: f32,
     /// Pairs that took part.
     pub pairs: u16,
     /// Their root mean square distance from the fit, pixels (each axis).
@@ -138,6 +147,7 @@ pub fn fit<'a, I: Iterator<Item = &'a Pair>>(
     let chosen = || pairs().filter(|c| on_the_road(model, &on_road, c));
     let mut used = 0usize;
     let mut sum_sq = 0.0f32;
+    let mut azimuth_var = 0.0f32;
     for band in BAND.map(|b| b * inlier_px) {
         let mut jtj = [[0.0f32; N]; N];
         let mut jtr = [0.0f32; N];
@@ -194,6 +204,12 @@ pub fn fit<'a, I: Iterator<Item = &'a Pair>>(
             return None;
         }
         let delta = solve(jtj, jtr)?;
+        // The azimuth's variance a pixel squared of residual: its diagonal entry of the
+        // inverse normal matrix (the last step's).
+        azimuth_var = solve(
+            jtj,
+            core::array::from_fn(|k| if k == 3 { 1.0 } else { 0.0 }),
+        )?[3];
         a = core::array::from_fn(|k| a[k] - delta[k]);
         // A distance that fell under the least (or is not a number) is no fit.
         if a[5].is_nan() || a[5] < MIN_DISTANCE_M {
@@ -206,6 +222,8 @@ pub fn fit<'a, I: Iterator<Item = &'a Pair>>(
         roll_rad: t.roll,
         azimuth_rad: p.azimuth,
         distance_m: d,
+        swing_rad_per_m: libm::sinf(p.alpha) / d,
+        azimuth_sd_rad: libm::sqrtf(azimuth_var.max(0.0) * sum_sq / (2.0 * used as f32)),
         pairs: u16::try_from(used).unwrap_or(u16::MAX),
         rms_px: libm::sqrtf(sum_sq / (2.0 * used as f32)),
     })
@@ -276,6 +294,45 @@ mod tests {
         // The points off the road were set aside.
         assert!(road.pairs >= 60 && road.pairs <= 66, "{road:?}");
         assert!(road.rms_px < 0.2, "{road:?}");
+    }
+
+    #[test]
+    fn a_camera_further_ahead_than_the_model_shows_in_the_direction_of_travel() {
+        // Pairs seen by a camera 0.2 m further ahead of the pivot than the model draws it, in a
+        // bend of 3 deg over 0.9 m: the fit's direction of travel leaves the chord by 0.2 m
+        // times its own swing a metre, and its heading stays the bend's.
+        let model = Model::new(&mount());
+        let truth = Params {
+            alpha: 3f32.to_radians(),
+            ..Params::default()
+        };
+        let ahead = model.from_pivot(-0.2);
+        for noise_px in [0.0, 0.2] {
+            let pairs = road_pairs(&ahead, &truth, 0.9, Tilt::default(), noise_px);
+            let road = fit(
+                &model,
+                || pairs.iter(),
+                |_| true,
+                truth,
+                0.9,
+                (700.0, 0.3, 1.0),
+            )
+            .expect("a fit");
+            let swing = libm::sinf(truth.alpha) / 0.9;
+            assert!(
+                (road.swing_rad_per_m - swing).abs() < 0.02 * swing,
+                "{road:?}"
+            );
+            // Within three of the fit's own standard errors.
+            let told = road.azimuth_rad / road.swing_rad_per_m;
+            let sd_m = road.azimuth_sd_rad / road.swing_rad_per_m;
+            assert!(
+                (told - 0.2).abs() < 0.005 + 3.0 * sd_m,
+                "{noise_px}: {told} m, {road:?}"
+            );
+            // The fit knows its direction to a tenth of a degree, noise or none.
+            assert!(road.azimuth_sd_rad < 0.1f32.to_radians(), "{road:?}");
+        }
     }
 
     #[test]
