@@ -632,8 +632,9 @@ impl Calibration {
     /// Takes one frame's direction of travel over `distance_m`, `azimuth_rad` left of the arc's
     /// chord as the mount with its camera moved `applied_x_m` ahead sees it, and
     /// `swing_rad_per_m`, how far it would move right were the camera a metre further ahead
-    /// ([`crate::heading::ImageMotion::swing_rad_per_m`], [`Road::swing_rad_per_m`]), with the
-    /// direction's standard error `sd_rad` where the frame's fit gives one (the road's plane):
+    /// ([`crate::heading::ImageMotion::swing_rad_per_m`], [`Road::swing_rad_per_m`] of the
+    /// frame's heading), with the direction's standard error `sd_rad` where the frame's fit
+    /// gives one (the road's plane):
     /// a frame that holds its direction less well than the line's spread about its points is
     /// left out (a kerb, or a second plane, in a tight bend reads the direction degrees off,
     /// the same way bend after bend, and says so in its standard error).
@@ -832,7 +833,6 @@ mod tests {
             roll_rad,
             azimuth_rad: 0.0,
             distance_m: 0.8,
-            swing_rad_per_m: 0.0,
             azimuth_sd_rad: 0.001,
             pairs: 20,
             rms_px: 0.2,

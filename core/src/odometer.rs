@@ -554,7 +554,7 @@ impl<
             .filter(|_| s.learn_x)
             .and_then(|i| Some(((i.azimuth_rad, i.swing_rad_per_m?), None)))
             .or(road.filter(|_| road_x).map(|r| {
-                let travel = (r.azimuth_rad, r.swing_rad_per_m);
+                let travel = (r.azimuth_rad, r.swing_rad_per_m(motion.heading_change_rad));
                 (travel, Some(r.azimuth_sd_rad))
             }));
         if step.is_some() || travel.is_some() || road.is_some() || swing.is_some() {

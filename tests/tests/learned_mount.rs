@@ -1,7 +1,7 @@
 //! The mount learned while driving (`learn_yaw`, `learn_pitch`, `learn_roll`, `learn_x`), end to
 //! end: a kitti-like drive with suspension rendered with one mount and the odometer told a yaw,
 //! or a pitch and a roll, 1 deg off, the town told a pitch or a roll 1 deg off or its camera
-//! 0.2 m nearer the axle, kitti-like told its camera 0.2 m further ahead, and the calibration
+//! 0.2 m nearer the axle, kitti-like told its camera 0.2 m nearer the axle, and the calibration
 //! carried across an ignition cycle as the bytes an ECU would keep.
 
 use roadvo::{AngleEstimate, Calibration, Estimate, Method, Odometer, SliceFrame, ValidConfig};
@@ -341,31 +341,29 @@ fn a_camera_placed_too_near_the_axle_is_moved_ahead_while_driving() {
 }
 
 #[test]
-fn on_a_road_alone_the_road_s_plane_moves_a_camera_placed_too_far_ahead() {
-    // kitti-like (seed 2) sees nothing above the horizon, its mount file's camera 0.2 m further
-    // ahead of the rear axle than the rendered one: in its bends the road's plane shows the
-    // camera's direction of travel off the chord by the error times the curvature.
+fn on_a_road_alone_the_road_s_plane_moves_a_camera_placed_too_near_the_axle_ahead() {
+    // kitti-like (seed 1) sees nothing above the horizon, its mount file's camera 0.2 m nearer
+    // the rear axle than the rendered one: in its bends the road's plane shows the camera's
+    // direction of travel off the chord by the error times the curvature.
     let dir = tempfile::tempdir().unwrap();
-    let (seq, truth, mut told) = render(dir.path(), "kitti-like", &["suspension"], FRAMES, 2);
-    told.mount.x_m += 0.2;
+    let (seq, truth, mut told) = render(dir.path(), "kitti-like", &["suspension"], FRAMES, 1);
+    told.mount.x_m -= 0.2;
     let (learned, kept) = x_learned_and_kept(&seq, &told);
     let c = learned.ran.calibration;
     let (x_m, sd_m) = c.x_ahead().unwrap();
-    // Within 0.1 m (on this scenario the road's plane reads the exact mount's camera 0.05-0.08 m
-    // too far ahead, seeds 1-3, `scripts/learned-mount x`), and clear of its standard error
-    // (about 0.1 m over these two bends: the road's direction of travel is a degree's noise a
-    // frame), so that the mount is moved.
-    assert!((x_m + 0.2).abs() < 0.1 && sd_m < x_m.abs(), "{c:?}");
-    assert!(c.applied_x_m() < -0.05, "{c:?}");
+    // Within 0.1 m (over these two bends its standard error is about 0.1 m: the road's
+    // direction of travel is a degree's noise a frame on this swaying body), and clear of its
+    // standard error, so that the mount is moved.
+    assert!((x_m - 0.2).abs() < 0.1 && sd_m < x_m.abs(), "{c:?}");
+    assert!(c.applied_x_m() > 0.05, "{c:?}");
     assert_eq!(kept.ran.calibration.x_ahead(), None);
     // The error turned the heading in every bend; learned, the rotation after the first 100 m
-    // is less than with the mount file's (0.0030 against 0.0043 deg/m here; over 400 frames
-    // 0.0023 against 0.0120, `scripts/learned-mount x 2`).
+    // is a fraction of the mount file's (0.0038 against 0.0174 deg/m).
     let from = settled_from(&truth);
     let r_err = |poses: &[[f64; 12]]| {
         let report = evaluate(&truth[from..], &poses[from..]).unwrap();
         report.r_err_deg_per_m.unwrap()
     };
     let (l, k) = (r_err(&learned.poses), r_err(&kept.poses));
-    assert!(l < k, "learned {l:.4} deg/m, mount file's {k:.4}");
+    assert!(3.0 * l < k, "learned {l:.4} deg/m, mount file's {k:.4}");
 }

@@ -28,12 +28,6 @@ pub struct Road {
     pub azimuth_rad: f32,
     /// The distance travelled, metres (from the pivot the motion is drawn from).
     pub distance_m: f32,
-    /// How far `azimuth_rad` would move right, radians, were the camera a metre further ahead
-    /// of the pivot than the mount says: the sine of the fitted turn over the fitted distance.
-    /// The homography holds the camera's travel whole, so the travel from the pivot takes up
-    /// all of the camera's further swing, `(Q - I)` times the metre ([`crate::calibration`]
-    /// learns the distance ahead against it).
-    pub swing_rad_per_m: f32,
     /// The standard error of `azimuth_rad`, radians: from the fit's normal equations and its
     /// residuals' spread.
     pub azimuth_sd_rad: f32,
@@ -41,6 +35,19 @@ pub struct Road {
     pub pairs: u16,
     /// Their root mean square distance from the fit, pixels (each axis).
     pub rms_px: f32,
+}
+
+impl Road {
+    /// How far `azimuth_rad` would move right, radians, were the camera a metre further ahead
+    /// of the pivot than the mount says, over a heading change of `turn_rad`: its sine over the
+    /// fitted distance. The homography holds the camera's travel whole, so the travel from the
+    /// pivot takes up all of the camera's further swing, `(Q - I)` times the metre
+    /// ([`crate::calibration`] learns the distance ahead against it). The turn is best another
+    /// fit's (the frame's heading): this fit's own trades with its azimuth, frame by frame, and
+    /// a line of one against the other would be tilted by that (on a swaying body, 0.08 m).
+    pub fn swing_rad_per_m(&self, turn_rad: f32) -> f32 {
+        libm::sinf(turn_rad) / self.distance_m
+    }
 }
 
 /// Parameters: the motion's five ([`Params`]), the distance, the tilt's pitch and roll.
@@ -222,7 +229,6 @@ pub fn fit<'a, I: Iterator<Item = &'a Pair>>(
         roll_rad: t.roll,
         azimuth_rad: p.azimuth,
         distance_m: d,
-        swing_rad_per_m: libm::sinf(p.alpha) / d,
         azimuth_sd_rad: libm::sqrtf(azimuth_var.max(0.0) * sum_sq / (2.0 * used as f32)),
         pairs: u16::try_from(used).unwrap_or(u16::MAX),
         rms_px: libm::sqrtf(sum_sq / (2.0 * used as f32)),
@@ -318,14 +324,12 @@ mod tests {
                 (700.0, 0.3, 1.0),
             )
             .expect("a fit");
-            let swing = libm::sinf(truth.alpha) / 0.9;
-            assert!(
-                (road.swing_rad_per_m - swing).abs() < 0.02 * swing,
-                "{road:?}"
-            );
+            let swing = road.swing_rad_per_m(truth.alpha);
+            let expected = libm::sinf(truth.alpha) / 0.9;
+            assert!((swing - expected).abs() < 0.02 * expected, "{road:?}");
             // Within three of the fit's own standard errors.
-            let told = road.azimuth_rad / road.swing_rad_per_m;
-            let sd_m = road.azimuth_sd_rad / road.swing_rad_per_m;
+            let told = road.azimuth_rad / swing;
+            let sd_m = road.azimuth_sd_rad / swing;
             assert!(
                 (told - 0.2).abs() < 0.005 + 3.0 * sd_m,
                 "{noise_px}: {told} m, {road:?}"
