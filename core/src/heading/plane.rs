@@ -306,7 +306,7 @@ mod tests {
     fn a_camera_further_ahead_than_the_model_shows_in_the_direction_of_travel() {
         // Pairs seen by a camera 0.2 m further ahead of the pivot than the model draws it, in a
         // bend of 3 deg over 0.9 m: the fit's direction of travel leaves the chord by 0.2 m
-        // times its own swing a metre, and its heading stays the bend's.
+        // times the swing a metre gives.
         let model = Model::new(&mount());
         let truth = Params {
             alpha: 3f32.to_radians(),
