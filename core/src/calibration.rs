@@ -634,10 +634,10 @@ impl Calibration {
     /// `swing_rad_per_m`, how far it would move right were the camera a metre further ahead
     /// ([`crate::heading::ImageMotion::swing_rad_per_m`], [`Road::swing_rad_per_m`] of the
     /// frame's heading), with the direction's standard error `sd_rad` where the frame's fit
-    /// gives one (the road's plane):
-    /// a frame that holds its direction less well than the line's spread about its points is
-    /// left out (a kerb, or a second plane, in a tight bend reads the direction degrees off,
-    /// the same way bend after bend, and says so in its standard error).
+    /// gives one (the road's plane): a frame that holds its direction less well than the
+    /// line's spread about its points is left out (a kerb, or a second plane, in a tight bend
+    /// reads the direction degrees off, the same way bend after bend, and says so in its
+    /// standard error).
     pub fn measure_x_ahead(
         &mut self,
         (azimuth_rad, swing_rad_per_m): (f32, f32),
@@ -645,12 +645,12 @@ impl Calibration {
         distance_m: f32,
         applied_x_m: f32,
     ) {
-        // As the mount file's camera would show it: the applied correction's swing added back.
-        let rad = azimuth_rad + applied_x_m * swing_rad_per_m;
-        let load = (swing_rad_per_m, SWING_VAR);
         if sd_rad.is_some_and(|sd| sd > self.swing.spread()) {
             return;
         }
+        // As the mount file's camera would show it: the applied correction's swing added back.
+        let rad = azimuth_rad + applied_x_m * swing_rad_per_m;
+        let load = (swing_rad_per_m, SWING_VAR);
         self.swing.take(rad, load, distance_m.abs(), distance_m);
     }
 

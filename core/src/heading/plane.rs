@@ -155,7 +155,7 @@ pub fn fit<'a, I: Iterator<Item = &'a Pair>>(
     let mut used = 0usize;
     let mut sum_sq = 0.0f32;
     let mut azimuth_var = 0.0f32;
-    for band in BAND.map(|b| b * inlier_px) {
+    for (step, band) in BAND.map(|b| b * inlier_px).into_iter().enumerate() {
         let mut jtj = [[0.0f32; N]; N];
         let mut jtr = [0.0f32; N];
         (used, sum_sq) = (0, 0.0);
@@ -211,12 +211,13 @@ pub fn fit<'a, I: Iterator<Item = &'a Pair>>(
             return None;
         }
         let delta = solve(jtj, jtr)?;
-        // The azimuth's variance a pixel squared of residual: its diagonal entry of the
-        // inverse normal matrix (the last step's).
-        azimuth_var = solve(
-            jtj,
-            core::array::from_fn(|k| if k == 3 { 1.0 } else { 0.0 }),
-        )?[3];
+        if step + 1 == STEPS {
+            // The azimuth's variance a pixel squared of residual: its diagonal entry of the
+            // last step's inverse normal matrix (which `solve` has just factored: it cannot
+            // fail here where it did not above).
+            let unit = core::array::from_fn(|k| if k == 3 { 1.0 } else { 0.0 });
+            azimuth_var = solve(jtj, unit)?[3];
+        }
         a = core::array::from_fn(|k| a[k] - delta[k]);
         // A distance that fell under the least (or is not a number) is no fit.
         if a[5].is_nan() || a[5] < MIN_DISTANCE_M {
